@@ -1,0 +1,168 @@
+// 3D log-odds occupancy grid with a fixed-capacity point list per voxel (paper 000, Sec. IV).
+//
+// ROS-free. The grid is robot-local and fixed-size: voxels are addressed by the global integer
+// indices of Eq. (1) (u, v, w) = (round(x / l_v), round(y / l_v), round(z / l_v)) and stored in a
+// ring buffer, so scrolling the window with the robot moves no memory: voxels that leave the
+// window are cleared and reused for the ones that enter it.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+/// Global voxel index of Eq. (1) (000, Sec. IV). w is the "indexed height".
+struct VoxelIndex {
+  int u = 0;
+  int v = 0;
+  int w = 0;
+  bool operator==(const VoxelIndex& o) const { return u == o.u && v == o.v && w == o.w; }
+  bool operator!=(const VoxelIndex& o) const { return !(*this == o); }
+};
+
+/// Parameters of the grid and of its sensor model. Defaults are paper 000's values.
+struct VoxelGridConfig {
+  double voxel_size = 0.1;  ///< l_v [m], 000 Sec. IV ("l_v = 0.1 m")
+  double size_x = 10.0;     ///< extent along x [m], 000 Sec. VII-D (10 x 10 x 3 m map)
+  double size_y = 10.0;     ///< extent along y [m]
+  double size_z = 3.0;      ///< extent along z [m]
+  double z_below_robot = 1.0;  ///< how far the window reaches below the robot's base [m]
+                               ///< (drop-offs down to this depth stay inside the grid)
+  int incr_high = 10;       ///< incr_H, added to the voxel the point falls in (000 Sec. IV)
+  int incr_low = 4;         ///< incr_L, added to its fore and aft neighbours on the ray
+  int decr = 1;             ///< subtracted from every voxel between fore neighbour and camera
+                            ///< (000 Sec. IV / VII-A evaluate 1, 3 and 5)
+  int occ_threshold = 100;  ///< occ_t: a voxel is occupied at LOP >= occ_t (000 Sec. IV)
+  int lop_min = -100;       ///< LOP clamp so that the map can change its mind (not in the paper)
+  int lop_max = 250;        ///< LOP clamp (not in the paper)
+  int point_list_capacity = 8;  ///< points kept per voxel, closest to the camera first
+  double max_range = 8.0;       ///< points farther than this from the camera are ignored [m]
+  double min_range = 0.2;       ///< points closer than this are ignored [m]
+
+  /// Empty when valid, otherwise a message naming the first offending parameter and its range.
+  std::string validate() const;
+};
+
+/// Counters of one integrate() call. points_in = points_non_finite + points_out_of_range +
+/// points_duplicate + points_used; points_outside_grid counts the used points whose endpoint
+/// lies outside the window.
+struct IntegrationStats {
+  std::size_t points_in = 0;          ///< points handed in
+  std::size_t points_non_finite = 0;  ///< NaN / inf, skipped
+  std::size_t points_out_of_range = 0;  ///< outside [min_range, max_range], skipped
+  std::size_t points_outside_grid = 0;  ///< endpoint outside the window (ray still clears)
+  std::size_t points_duplicate = 0;     ///< voxel already had its point this frame (000 Sec. IV)
+  std::size_t points_used = 0;          ///< points whose ray was cast (incl. outside_grid)
+  std::size_t voxels_decremented = 0;   ///< free-space updates applied
+};
+
+/// One point of a voxel's list and its distance to the camera when it was seen.
+struct VoxelPoint {
+  Eigen::Vector3f position;  ///< fixed frame [m]
+  float range;               ///< distance to the camera at observation [m]
+};
+
+/// Read-only view of one voxel's point list, ordered by ascending range.
+struct VoxelPointList {
+  const VoxelPoint* data = nullptr;
+  std::size_t size = 0;
+  const VoxelPoint* begin() const { return data; }
+  const VoxelPoint* end() const { return data + size; }
+  bool empty() const { return size == 0; }
+};
+
+class VoxelGrid {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit VoxelGrid(const VoxelGridConfig& config = VoxelGridConfig());
+
+  const VoxelGridConfig& config() const { return config_; }
+
+  /// Number of voxels along each axis (size / l_v rounded).
+  int sizeU() const { return nu_; }
+  int sizeV() const { return nv_; }
+  int sizeW() const { return nw_; }
+  /// Smallest global index inside the window; the window is [min, min + size).
+  VoxelIndex minIndex() const { return min_; }
+
+  /// Eq. (1): global index of a point (rounding, so voxel u spans [(u - 0.5) l_v, (u + 0.5) l_v)).
+  VoxelIndex indexOf(const Eigen::Vector3f& p) const;
+  /// Centre of a voxel in the fixed frame: (u, v, w) * l_v.
+  Eigen::Vector3f centerOf(const VoxelIndex& i) const;
+  bool contains(const VoxelIndex& i) const;
+
+  /// Moves the window by whole voxels so that the robot's base is at its xy centre and
+  /// z_below_robot above its bottom. Voxels leaving the window are cleared (LOP 0, no points).
+  /// Returns the number of voxels cleared. The first call places the window.
+  std::size_t recenter(const Eigen::Vector3f& robot_base_position);
+
+  /// Clears every voxel (LOP 0, empty point lists); keeps the window.
+  void clear();
+
+  /// Integrates one frame (000 Sec. IV). `points` are in the sensor frame, `T_fixed_sensor`
+  /// maps them to the fixed frame; the camera origin is its translation. Only the first point
+  /// that falls into a voxel in this frame is used. Non-finite points are skipped.
+  IntegrationStats integrate(const std::vector<Eigen::Vector3f>& points,
+                             const Eigen::Isometry3f& T_fixed_sensor);
+
+  /// Log-odds of a voxel; 0 outside the window.
+  int logOdds(const VoxelIndex& i) const;
+  /// LOP >= occ_t (000 Sec. IV); false outside the window.
+  bool isOccupied(const VoxelIndex& i) const;
+  /// The voxel's point list (empty outside the window).
+  VoxelPointList points(const VoxelIndex& i) const;
+
+  /// Sets a voxel's log-odds directly (clamped). For tests and for fusing external cues.
+  void setLogOdds(const VoxelIndex& i, int lop);
+
+  /// Number of integrate() calls so far.
+  std::uint32_t frameCount() const { return frame_; }
+
+ private:
+  // Global indices are clamped to +-kIndexLimit so that any coordinate (even 1e30) converts to
+  // int without overflow; a clamped index is always far outside the window.
+  static constexpr int kIndexLimit = 1 << 30;
+  // Endpoints outside the window are de-duplicated in a small hash set (000 Sec. IV: one point
+  // per voxel per frame holds for every voxel, not only for those the window stores).
+  static constexpr int kOutsideSetBits = 16;
+  static constexpr int kOutsideSetProbes = 16;
+  struct OutsideEntry {
+    std::uint64_t key = 0;
+    std::uint32_t stamp = 0;
+  };
+
+  std::size_t linear(const VoxelIndex& i) const;  // ring-buffer address, i must be contained
+  void clearVoxel(std::size_t k);
+  VoxelIndex windowMinFor(const Eigen::Vector3f& robot_base_position) const;
+  void rebuildSlotTables();
+  std::uint32_t nextStamp();
+  bool firstOutsideHit(std::int64_t ru, std::int64_t rv, std::int64_t rw);
+  void castRay(const double a[3], const double b[3], const int e[3], IntegrationStats& stats);
+  void addIncrement(std::size_t k, int amount);
+  void insertPoint(std::size_t k, const Eigen::Vector3f& p, float range);
+
+  VoxelGridConfig config_;
+  int nu_ = 0, nv_ = 0, nw_ = 0;
+  int z_below_voxels_ = 0;
+  double inv_voxel_size_ = 0.0;
+  VoxelIndex min_;
+  std::uint32_t frame_ = 0;
+  std::uint32_t stamp_now_ = 0;             // stamp of the current frame, 0 = never
+  std::vector<std::int16_t> lop_;           // log-odds per voxel
+  std::vector<std::uint32_t> stamp_;        // stamp of the frame in which the voxel got its point
+  std::vector<std::uint8_t> point_count_;   // points in each voxel's list
+  std::vector<VoxelPoint> point_storage_;   // capacity points per voxel, contiguous
+  std::vector<std::int32_t> pending_;       // this frame's increments, applied after decrements
+  std::vector<std::uint32_t> touched_;      // voxels with a non-zero pending_ (each at most once)
+  std::size_t num_touched_ = 0;
+  // Window-relative index -> ring-buffer offset per axis; their sum is the linear address.
+  std::vector<std::uint32_t> slot_u_, slot_v_, slot_w_;
+  std::vector<OutsideEntry> outside_seen_;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,54 @@
+# Shared set-up for scripts/test, scripts/demo and scripts/bench. Source it; do not run it.
+# shellcheck shell=bash
+
+SSM_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+SSM_WS="${SSM_WS:-$SSM_ROOT/.ws}"
+SSM_CACHE="${SSM_CACHE:-$SSM_ROOT/.cache}"
+
+# ROS Python tools want Debian's interpreter, not a python3 that happens to be first on PATH.
+export PATH="/usr/bin:/bin:$PATH"
+export PYTHONNOUSERSITE=1
+export ROS_PYTHON_VERSION=3
+export ROSCONSOLE_STDOUT_LINE_BUFFERED=1
+
+ssm_log() { printf '[%s] %s\n' "$(basename "$0")" "$*" >&2; }
+
+# Installs the Debian packages in scripts/lib/apt-packages.txt that are missing (quiet when all
+# are present; through sudo when not root).
+ssm_ensure_packages() {
+  local missing=() pkg
+  while read -r pkg; do
+    [[ -z "$pkg" || "$pkg" == \#* ]] && continue
+    if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+      missing+=("$pkg")
+    fi
+  done < "$SSM_ROOT/scripts/lib/apt-packages.txt"
+  [[ ${#missing[@]} -eq 0 ]] && return 0
+  local sudo=""
+  [[ $(id -u) -ne 0 ]] && sudo="sudo"
+  ssm_log "installing ${#missing[@]} missing Debian packages: ${missing[*]}"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+    "${missing[@]}" >/dev/null
+}
+
+# Makes the catkin workspace overlay (.ws/src/stereo_safety_map -> this repository) and builds
+# it in Release with tests. Incremental on a second run.
+ssm_build() {
+  mkdir -p "$SSM_WS/src"
+  local link="$SSM_WS/src/stereo_safety_map"
+  if [[ ! -e "$link" ]]; then ln -s "$SSM_ROOT" "$link"; fi
+  # Arguments are passed to catkin_make (targets such as `tests`, or extra -D options).
+  (cd "$SSM_WS" && catkin_make -j2 \
+    -DCMAKE_BUILD_TYPE=Release \
+    -DCATKIN_ENABLE_TESTING=ON \
+    -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
+    "$@")
+}
+
+ssm_source_ws() {
+  # shellcheck disable=SC1091
+  set +u
+  source "$SSM_WS/devel/setup.bash"
+  set -u
+}
