@@ -11,7 +11,10 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace stereo_safety_map {
@@ -27,19 +30,19 @@ struct VoxelIndex {
 
 /// Parameters of the grid and of its sensor model. Defaults are paper 000's values.
 struct VoxelGridConfig {
-  double voxel_size = 0.1;  ///< l_v [m], 000 Sec. IV ("l_v = 0.1 m")
-  double size_x = 10.0;     ///< extent along x [m], 000 Sec. VII-D (10 x 10 x 3 m map)
-  double size_y = 10.0;     ///< extent along y [m]
-  double size_z = 3.0;      ///< extent along z [m]
+  double voxel_size = 0.1;     ///< l_v [m], 000 Sec. IV ("l_v = 0.1 m")
+  double size_x = 10.0;        ///< extent along x [m], 000 Sec. VII-D (10 x 10 x 3 m map)
+  double size_y = 10.0;        ///< extent along y [m]
+  double size_z = 3.0;         ///< extent along z [m]
   double z_below_robot = 1.0;  ///< how far the window reaches below the robot's base [m]
                                ///< (drop-offs down to this depth stay inside the grid)
-  int incr_high = 10;       ///< incr_H, added to the voxel the point falls in (000 Sec. IV)
-  int incr_low = 4;         ///< incr_L, added to its fore and aft neighbours on the ray
-  int decr = 1;             ///< subtracted from every voxel between fore neighbour and camera
-                            ///< (000 Sec. IV / VII-A evaluate 1, 3 and 5)
-  int occ_threshold = 100;  ///< occ_t: a voxel is occupied at LOP >= occ_t (000 Sec. IV)
-  int lop_min = -100;       ///< LOP clamp so that the map can change its mind (not in the paper)
-  int lop_max = 250;        ///< LOP clamp (not in the paper)
+  int incr_high = 10;          ///< incr_H, added to the voxel the point falls in (000 Sec. IV)
+  int incr_low = 4;            ///< incr_L, added to its fore and aft neighbours on the ray
+  int decr = 1;                ///< subtracted from every voxel between fore neighbour and camera
+                               ///< (000 Sec. IV / VII-A evaluate 1, 3 and 5)
+  int occ_threshold = 100;     ///< occ_t: a voxel is occupied at LOP >= occ_t (000 Sec. IV)
+  int lop_min = -100;          ///< LOP clamp so that the map can change its mind (not in the paper)
+  int lop_max = 250;           ///< LOP clamp (not in the paper)
   int point_list_capacity = 8;  ///< points kept per voxel, closest to the camera first
   double max_range = 8.0;       ///< points farther than this from the camera are ignored [m]
   double min_range = 0.2;       ///< points closer than this are ignored [m]
@@ -52,8 +55,8 @@ struct VoxelGridConfig {
 /// points_duplicate + points_used; points_outside_grid counts the used points whose endpoint
 /// lies outside the window.
 struct IntegrationStats {
-  std::size_t points_in = 0;          ///< points handed in
-  std::size_t points_non_finite = 0;  ///< NaN / inf, skipped
+  std::size_t points_in = 0;            ///< points handed in
+  std::size_t points_non_finite = 0;    ///< NaN / inf, skipped
   std::size_t points_out_of_range = 0;  ///< outside [min_range, max_range], skipped
   std::size_t points_outside_grid = 0;  ///< endpoint outside the window (ray still clears)
   std::size_t points_duplicate = 0;     ///< voxel already had its point this frame (000 Sec. IV)
@@ -75,6 +78,29 @@ struct VoxelPointList {
   const VoxelPoint* end() const { return data + size; }
   bool empty() const { return size == 0; }
 };
+
+namespace detail {
+/// std::allocator that default-initialises on resize() instead of value-initialising, so a
+/// large buffer whose unused part is never read is not zeroed up front.
+template <typename T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <typename U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* p) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+}  // namespace detail
 
 class VoxelGrid {
  public:
@@ -142,6 +168,16 @@ class VoxelGrid {
   void rebuildSlotTables();
   std::uint32_t nextStamp();
   bool firstOutsideHit(std::int64_t ru, std::int64_t rv, std::int64_t rw);
+  // A point of integrate() that passed the one-point-per-voxel test.
+  struct Endpoint {
+    double s[3];         // x / l_v + 1/2 per axis (Eq. (1) before the floor)
+    std::int64_t r[3];   // global index minus minIndex()
+    Eigen::Vector3f pf;  // fixed frame
+    float range;
+    std::size_t k;  // ring-buffer address when inside
+    bool inside;
+  };
+  void useEndpoint(const double a[3], const Endpoint& ep, IntegrationStats& stats);
   void castRay(const double a[3], const double b[3], const int e[3], IntegrationStats& stats);
   void addIncrement(std::size_t k, int amount);
   void insertPoint(std::size_t k, const Eigen::Vector3f& p, float range);
@@ -152,13 +188,15 @@ class VoxelGrid {
   double inv_voxel_size_ = 0.0;
   VoxelIndex min_;
   std::uint32_t frame_ = 0;
-  std::uint32_t stamp_now_ = 0;             // stamp of the current frame, 0 = never
-  std::vector<std::int16_t> lop_;           // log-odds per voxel
-  std::vector<std::uint32_t> stamp_;        // stamp of the frame in which the voxel got its point
-  std::vector<std::uint8_t> point_count_;   // points in each voxel's list
-  std::vector<VoxelPoint> point_storage_;   // capacity points per voxel, contiguous
-  std::vector<std::int32_t> pending_;       // this frame's increments, applied after decrements
-  std::vector<std::uint32_t> touched_;      // voxels with a non-zero pending_ (each at most once)
+  std::uint32_t stamp_now_ = 0;            // stamp of the current frame, 0 = never
+  std::vector<std::int16_t> lop_;          // log-odds per voxel
+  std::vector<std::uint32_t> stamp_;       // stamp of the frame in which the voxel got its point
+  std::vector<std::uint8_t> point_count_;  // points in each voxel's list
+  // capacity points per voxel, contiguous; default-initialised (slots past a list's count are
+  // never read), so pages are only touched when points arrive
+  std::vector<VoxelPoint, detail::DefaultInitAllocator<VoxelPoint>> point_storage_;
+  std::vector<std::int32_t> pending_;   // this frame's increments, applied after decrements
+  std::vector<std::uint32_t> touched_;  // voxels with a non-zero pending_ (each at most once)
   std::size_t num_touched_ = 0;
   // Window-relative index -> ring-buffer offset per axis; their sum is the linear address.
   std::vector<std::uint32_t> slot_u_, slot_v_, slot_w_;

@@ -1,0 +1,181 @@
+// Stereo disparity stage, ROS-free: OpenCV block matching (or SGBM) followed by the papers'
+// post-filters (disparity_filters.h). Shared by the disparity nodelet, the offline evaluation
+// tool and the occupancy-grid mapper.
+//
+// Output convention (as in disparity_filters.h): CV_32FC1 disparity in pixels of the left image,
+// valid = finite and > 0, every invalid pixel exactly 0.
+//
+// Steps, in order (each can be switched off):
+//  1. matching: StereoBM / StereoSGBM; 002's "quality of match" test runs inside it as OpenCV's
+//     uniquenessRatio, since only the matcher sees the costs (002, Sec. 2.2);
+//  2. texture validation: mean |LoG| of the left image over the window (002, Sec. 2.2);
+//  3. left-right consistency: the mirrored pair is matched by a second matcher with the same
+//     settings to get right-to-left disparities (002, Sec. 4.1, ref. [7]);
+//  4. neighbour consistency: drop readings unlike their neighbours (000, Sec. III);
+//  5. spike removal: drop small continuous-disparity surfaces (002, Sec. 4.2); last, so that it
+//     also removes fragments the earlier steps left behind.
+#pragma once
+
+#include "stereo_safety_map/core/disparity_filters.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace stereo_safety_map {
+
+enum class StereoMatcherType { kBlockMatching, kSemiGlobal };
+
+/// Matcher settings and one enable flag + config per post-filter. The papers used a Triclops
+/// SAD matcher (002 Sec. 2.2) and a commercial multi-scale correlation matcher (000 Sec. III) and
+/// give no matcher numbers; the defaults below are ours, for 640x480 images.
+struct DisparityPipelineConfig {
+  StereoMatcherType matcher = StereoMatcherType::kBlockMatching;
+  int min_disparity = 0;     ///< [0, 256]; disparities <= 0 are invalid by convention
+  int num_disparities = 64;  ///< multiple of 16, [16, 256]
+  int block_size = 9;        ///< odd; BM: [5, 255], SGBM: [1, 255]; keep texture.window_size equal
+  int pre_filter_cap = 31;   ///< [1, 63], clips the x-derivative pre-filter of BM / SGBM
+  /// OpenCV's own texture test (BM only), 0 = off: the LoG test below replaces it.
+  int bm_texture_threshold = 0;
+  /// OpenCV's speckle filter inside the matcher (size [px], >= 0), 0 = off: spike removal below
+  /// is 002's version of it.
+  int speckle_window_size = 0;
+  int speckle_range = 1;        ///< its disparity continuity [px], [0, 64]
+  int sgbm_p1 = 0;              ///< SGBM smoothness penalties, 0 = 8 * block_size^2
+  int sgbm_p2 = 0;              ///< 0 = 32 * block_size^2; when both set, p2 > p1
+  bool sgbm_three_way = false;  ///< StereoSGBM::MODE_SGBM_3WAY (faster) instead of MODE_SGBM
+
+  bool enable_uniqueness = true;     ///< uniqueness.uniqueness_ratio -> matcher (002 Sec. 2.2)
+  MatchUniquenessConfig uniqueness;  ///< max_normalized_cost must stay 0: no cost volume here
+  bool enable_texture = true;
+  TextureValidationConfig texture;
+  bool enable_left_right = true;
+  LeftRightCheckConfig left_right;
+  bool enable_neighbour_consistency = true;
+  NeighbourConsistencyConfig neighbour_consistency;
+  bool enable_spike_removal = true;
+  SpikeRemovalConfig spike_removal;
+
+  /// Keep a per-pixel removal reason and a colour debug image (see DisparityPipeline). When the
+  /// uniqueness test is on this runs one extra matcher pass without it, to attribute its pixels.
+  bool debug = false;
+
+  std::string validate() const;
+};
+
+/// Steps of the pipeline, in execution order (index into DisparityStats::steps).
+enum class DisparityStep : int {
+  kPreprocess = 0,  ///< checks, conversion to grey
+  kMatching,        ///< left-to-right matcher (uniqueness test included)
+  kUniqueness,      ///< only measured in debug mode (extra matcher pass), else ran = false
+  kTexture,         ///< LoG texture test
+  kRightMatching,   ///< right-to-left matcher on the mirrored pair (for the left-right check)
+  kLeftRight,       ///< left-right consistency check
+  kNeighbourConsistency,
+  kSpikeRemoval,
+};
+constexpr int kNumDisparitySteps = 8;
+const char* disparityStepName(DisparityStep step);
+
+struct DisparityStepStats {
+  bool ran = false;
+  int valid_before = 0;  ///< valid left disparities before the step (right ones for kRightMatching)
+  int valid_after = 0;
+  double ms = 0.0;
+};
+
+struct DisparityStats {
+  std::array<DisparityStepStats, kNumDisparitySteps> steps{};
+  int pixels = 0;  ///< image size
+  int valid = 0;   ///< valid pixels in the output
+  double total_ms = 0.0;
+  const DisparityStepStats& step(DisparityStep s) const { return steps[static_cast<int>(s)]; }
+  DisparityStepStats& step(DisparityStep s) { return steps[static_cast<int>(s)]; }
+};
+
+/// Why a pixel of the last output is invalid (debug mode only).
+enum class DisparityRemoval : std::uint8_t {
+  kValid = 0,       ///< debug colour: grey, brighter = nearer
+  kMatcher = 1,     ///< matcher found nothing (image border, OpenCV texture / speckle): black
+  kUniqueness = 2,  ///< 002 Sec. 2.2 quality-of-match test: green (0, 200, 0)
+  kTexture = 3,     ///< 002 Sec. 2.2 texture test: blue (255, 0, 0 in BGR)
+  kLeftRight = 4,   ///< left-right check: red (0, 0, 255 in BGR)
+  kNeighbour = 5,   ///< 000 Sec. III neighbour consistency: yellow (0, 255, 255 in BGR)
+  kSpike = 6,       ///< 002 Sec. 4.2 spike removal: magenta (255, 0, 255 in BGR)
+};
+
+/// BGR colour of a removal reason in the debug image (kValid: the colour of the nearest depth).
+cv::Vec3b disparityRemovalColour(DisparityRemoval reason);
+
+/// Not thread-safe (matchers and buffers are members, reused every frame): one per thread.
+class DisparityPipeline {
+ public:
+  DisparityPipeline() = default;
+  explicit DisparityPipeline(const DisparityPipelineConfig& config) : config_(config) {}
+
+  /// Replaces the configuration (checked at the next compute(); matchers are rebuilt only when
+  /// a matcher setting changed).
+  void setConfig(const DisparityPipelineConfig& config) { config_ = config; }
+  const DisparityPipelineConfig& config() const { return config_; }
+
+  /// Rectified pair, CV_8UC1, CV_8UC3 (BGR or RGB: the channel order only changes the grey
+  /// weights, identically for both images) or CV_8UC4, same size, at least
+  /// min_disparity + num_disparities + block_size wide and block_size high. Writes a CV_32FC1
+  /// disparity (pixels) to *disparity_out and, when stats != nullptr, per-step counts and times.
+  /// Returns false with a message in *error (when non-null) for bad input or config; never
+  /// throws. On false *disparity_out must not be used.
+  bool compute(const cv::Mat& left, const cv::Mat& right, cv::Mat* disparity_out,
+               DisparityStats* stats, std::string* error);
+
+  /// Debug mode only (else empty): per-pixel DisparityRemoval (CV_8UC1) and its colour image
+  /// (CV_8UC3, BGR, colours as documented on DisparityRemoval) of the last successful compute().
+  const cv::Mat& removalReasons() const { return removal_; }
+  const cv::Mat& debugImage() const { return debug_image_; }
+
+  /// Right-to-left disparity of the last compute() (right-image pixels), when the left-right
+  /// check ran; else empty.
+  const cv::Mat& rightDisparity() const { return right_disparity_; }
+
+  /// How many times the matchers were (re)built; for checking the cache.
+  int matcherBuilds() const { return matcher_builds_; }
+
+ private:
+  struct MatcherKey {
+    StereoMatcherType type = StereoMatcherType::kBlockMatching;
+    int min_disparity = -1, num_disparities = -1, block_size = -1, pre_filter_cap = -1;
+    int texture_threshold = -1, uniqueness_ratio = -1, speckle_window_size = -1;
+    int speckle_range = -1, p1 = -1, p2 = -1;
+    bool three_way = false;
+    bool operator==(const MatcherKey& o) const;
+  };
+  static MatcherKey keyOf(const DisparityPipelineConfig& config);
+  static cv::Ptr<cv::StereoMatcher> createMatcher(const MatcherKey& key, int uniqueness_ratio);
+  void ensureMatchers();
+  bool toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat** grey, const char* which,
+              std::string* error) const;
+  void convertMatcherOutput(const cv::Mat& raw, cv::Mat* disparity) const;
+  void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
+  void renderDebugImage(const cv::Mat& disparity);
+
+  DisparityPipelineConfig config_;
+  MatcherKey key_;
+  cv::Ptr<cv::StereoMatcher> left_matcher_;
+  cv::Ptr<cv::StereoMatcher> right_matcher_;
+  cv::Ptr<cv::StereoMatcher> plain_matcher_;  ///< debug: left matcher without uniqueness test
+  int matcher_builds_ = 0;
+
+  // Buffers reused between frames.
+  cv::Mat left_grey_, right_grey_;
+  cv::Mat raw_;                             ///< CV_16S matcher output (1/16 px)
+  cv::Mat mirrored_left_, mirrored_right_;  ///< mirrored, padded pair for right-to-left
+  cv::Mat raw_mirrored_, raw_right_;
+  cv::Mat right_disparity_;
+  cv::Mat plain_disparity_;
+  cv::Mat removal_, debug_image_;
+  DisparityFilterWorkspace workspace_;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,70 @@
+// Height map of the voxel grid: per (u, v) column the indexed height w of the highest occupied
+// voxel the robot could not pass under (paper 000, Sec. V-A and Alg. 1 step 1).
+//
+// ROS-free. The map covers the grid's (u, v) window; cells are row-major like SafetyMap:
+// index = (v - min_v) * width + (u - min_u).
+#pragma once
+
+#include "stereo_safety_map/core/voxel_grid.h"
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+struct HeightMapConfig {
+  /// Robot height above its base [m]. Occupied voxels whose centre is at or above
+  /// base z + robot_height are ignored: the robot can travel under them (000, Sec. V-A).
+  double robot_height = 1.5;
+
+  /// Empty when valid, otherwise a message naming the offending parameter and its range.
+  std::string validate() const;
+};
+
+class HeightMap {
+ public:
+  /// Marks a column without any occupied voxel below the robot's top.
+  static constexpr std::int32_t kNoHeight = std::numeric_limits<std::int32_t>::min();
+
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit HeightMap(const HeightMapConfig& config = HeightMapConfig());
+
+  const HeightMapConfig& config() const { return config_; }
+
+  /// Alg. 1 step 1 (000, Sec. V-A) over the whole (u, v) window of `grid`. `robot_base_z` is the
+  /// fixed-frame height of the robot's base. Returns false (and leaves every column without a
+  /// height) when robot_base_z is not finite.
+  bool build(const VoxelGrid& grid, float robot_base_z);
+
+  /// Sizes the map to a window with no heights (for tests and for other sources of heights).
+  /// Negative sizes are treated as 0.
+  void reset(int min_u, int min_v, int width, int height);
+  /// Sets one column's indexed height (kNoHeight clears it); ignored outside the window.
+  void set(int u, int v, std::int32_t w);
+
+  int minU() const { return min_u_; }
+  int minV() const { return min_v_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int numCells() const { return width_ * height_; }
+  bool inside(int u, int v) const {
+    return u >= min_u_ && v >= min_v_ && u < min_u_ + width_ && v < min_v_ + height_;
+  }
+  int index(int u, int v) const { return (v - min_v_) * width_ + (u - min_u_); }
+  /// Indexed height of column (u, v); kNoHeight when it has none or is outside the window.
+  std::int32_t at(int u, int v) const { return inside(u, v) ? w_[index(u, v)] : kNoHeight; }
+  std::int32_t atIndex(int cell) const { return w_[cell]; }
+  const std::vector<std::int32_t>& data() const { return w_; }
+  /// Highest indexed height considered by the last build() (the robot's top), for diagnostics.
+  int topIndex() const { return top_w_; }
+
+ private:
+  HeightMapConfig config_;
+  int min_u_ = 0, min_v_ = 0, width_ = 0, height_ = 0;
+  int top_w_ = 0;
+  std::vector<std::int32_t> w_;
+};
+
+}  // namespace stereo_safety_map

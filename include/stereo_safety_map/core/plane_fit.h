@@ -1,0 +1,79 @@
+// Least-squares plane z = a x + b y + c fitted to the points of a ground segment (paper 000,
+// Sec. V-B).
+//
+// ROS-free. The fit is done on data shifted to a reference point taken from the data itself and
+// then centred, in double precision, so that segments far from the map origin (large x, y, z) fit
+// as well as segments near it. With centred data the intercept decouples from the slopes and the
+// normal equations reduce to a 2x2 symmetric system in (a, b).
+#pragma once
+
+#include "stereo_safety_map/core/ground_segmentation.h"
+#include "stereo_safety_map/core/safety_map.h"
+#include "stereo_safety_map/core/voxel_grid.h"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+struct PlaneFitConfig {
+  /// Fewest points for a valid plane (not in the paper). Three points determine a plane exactly
+  /// and leave no residual to judge it by; six, the size of the smallest segment Alg. 2 keeps
+  /// (n_small), is the least that averages any stereo noise.
+  int min_points = 6;
+  /// Smallest standard deviation [m] of the points' xy positions along their narrowest horizontal
+  /// direction (not in the paper). Below it the points are (nearly) collinear in xy, or on a
+  /// vertical surface, and z = a x + b y + c is not determined. A one-voxel-wide strip of points
+  /// spread over its 0.1 m cells has about 0.029 m, well above the default.
+  double min_xy_stddev = 0.005;
+
+  /// Empty when valid, otherwise a message naming the offending parameter and its range.
+  std::string validate() const;
+};
+
+/// Accumulates points and fits z = a x + b y + c by linear least squares (000, Sec. V-B).
+/// Non-finite points are ignored. No allocation.
+class PlaneFitAccumulator {
+ public:
+  void clear();
+  void add(const Eigen::Vector3d& p);
+  void add(const Eigen::Vector3f& p) { add(Eigen::Vector3d(p.cast<double>())); }
+  std::size_t count() const { return n_; }
+  /// The least-squares plane; `valid` is false for fewer than config.min_points points or
+  /// degenerate (collinear in xy) geometry, and then only num_points and centroid are filled.
+  GroundPlane fit(const PlaneFitConfig& config) const;
+
+ private:
+  std::size_t n_ = 0;
+  Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();  // first point: shifts the data near zero
+  double sx_ = 0, sy_ = 0, sz_ = 0;                // sums of shifted coordinates
+  double sxx_ = 0, sxy_ = 0, syy_ = 0, sxz_ = 0, syz_ = 0, szz_ = 0;
+};
+
+/// Fits a plane to a set of points (000, Sec. V-B).
+GroundPlane fitPlane(const std::vector<Eigen::Vector3d>& points,
+                     const PlaneFitConfig& config = PlaneFitConfig());
+
+class PlaneFitter {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit PlaneFitter(const PlaneFitConfig& config = PlaneFitConfig());
+
+  const PlaneFitConfig& config() const { return config_; }
+
+  /// Plane of one segment from the point lists of its voxels at the segment's indexed height
+  /// (000, Sec. V-B). An out-of-range segment id gives an invalid plane.
+  GroundPlane fitSegment(const VoxelGrid& grid, const GroundSegments& segments, int k) const;
+
+  /// Planes of all segments; planes->size() becomes segments.numSegments() (buffer reused).
+  void fitAll(const VoxelGrid& grid, const GroundSegments& segments,
+              std::vector<GroundPlane>* planes) const;
+
+ private:
+  PlaneFitConfig config_;
+};
+
+}  // namespace stereo_safety_map

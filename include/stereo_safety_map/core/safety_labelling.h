@@ -1,0 +1,79 @@
+// Labelling of ground segments for connectivity and safety and construction of the local safety
+// map with potential drop-off edges (paper 000, Sec. VI, Alg. 2).
+//
+// ROS-free. Input: the height map, the segments of Alg. 1 and one plane per segment (Sec. V-B).
+#pragma once
+
+#include "stereo_safety_map/core/ground_segmentation.h"
+#include "stereo_safety_map/core/height_map.h"
+#include "stereo_safety_map/core/safety_map.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+struct SafetyLabellingConfig {
+  double max_slope_deg = 10.0;    ///< theta_max: steeper planes are Non-ground (000, Alg. 2 step 2)
+  int min_segment_cells = 6;      ///< n_small: smaller segments are Unknown (Alg. 2 step 3)
+  double thin_ratio = 0.1;        ///< r_thin: #interior < r_thin #boundary is thin (Alg. 2 step 4)
+  double max_step_height = 0.05;  ///< h_T [m]: largest plane height difference crossable (step 17)
+  int min_passage_cells = 5;      ///< num_T: robot width in cells (Alg. 2 step 21)
+  double level_slope_deg = 3.0;   ///< theta_T: steeper safe planes are Inclined (Alg. 2 step 28)
+
+  /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
+  /// when it has an Unknown 8-neighbour and, within drop_off_radius [m] of its centre, a cell
+  /// whose column (indexed) height l_v w is lower than the cell's own plane height by more than
+  /// drop_off_min_drop [m]. The paper only says "close"; the radius is set from the occlusion
+  /// shadow behind a drop: seen from a camera H = 1.1 m high at distance d, a drop of h hides
+  /// d h / H of the lower level (0.36 m for h = 0.2 m at d = 2 m, 0.55 m at 3 m).
+  bool mark_drop_offs = true;
+  double drop_off_radius = 0.5;
+  double drop_off_min_drop = 0.05;  ///< defaults to h_T: a smaller drop is crossable
+
+  /// Empty when valid, otherwise a message naming the offending parameter and its range.
+  std::string validate() const;
+};
+
+class SafetyLabelling {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit SafetyLabelling(const SafetyLabellingConfig& config = SafetyLabellingConfig());
+
+  const SafetyLabellingConfig& config() const { return config_; }
+
+  /// Alg. 2 and the safety map of Sec. VI. planes[k] is segment k's plane (missing entries count
+  /// as invalid planes). Segment labels: invalid plane -> Unknown; slope > theta_max ->
+  /// Non-ground; small or thin -> Unknown; the robot's segment -> safe (when its plane is valid);
+  /// segments reached from a safe one -> safe; the rest -> Non-ground; safe -> Level / Inclined.
+  /// Cells: their segment's label; non-traversable -> Non-ground; beyond R_max -> Unexamined;
+  /// the rest -> Unknown. `map`'s buffers are reused.
+  /// Returns false when the inputs disagree in size (height map vs segments) or voxel_size is not
+  /// positive; `map` then covers the height map's window with every cell Unknown and no segments.
+  bool label(const HeightMap& height_map, const GroundSegments& segments,
+             const std::vector<GroundPlane>& planes, double voxel_size, SafetyMap* map);
+
+ private:
+  struct Contact {  // a boundary cell of segment s next to segment r
+    int s;
+    int r;
+    int ok;  // 1 when the planes of s and r differ by less than h_T at the cell's centre
+  };
+  struct Edge {  // all contacts of s with r, s's side only
+    int r;
+    int ok;
+  };
+  int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
+
+  SafetyLabellingConfig config_;
+  std::vector<std::uint8_t> boundary_;  // per cell
+  std::vector<Contact> contacts_;
+  std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
+  std::vector<int> edge_begin_;
+  std::vector<std::uint8_t> seg_state_;  // per segment, internal labels of Alg. 2
+  std::vector<std::uint8_t> neighbours_examined_;
+  std::vector<int> to_examine_;  // L_S of Alg. 2
+};
+
+}  // namespace stereo_safety_map

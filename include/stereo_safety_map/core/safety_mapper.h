@@ -1,0 +1,134 @@
+// Per-frame pipeline of paper 000: voxel grid update (Sec. IV), height map and ground
+// segmentation (Sec. V-A, Alg. 1), plane fit (Sec. V-B), safety labelling (Sec. VI, Alg. 2).
+//
+// ROS-free. One instance per camera. Buffers are members and reused, so a steady stream of
+// frames does not allocate (except when the number of segments grows).
+#pragma once
+
+#include "stereo_safety_map/core/ground_segmentation.h"
+#include "stereo_safety_map/core/height_map.h"
+#include "stereo_safety_map/core/plane_fit.h"
+#include "stereo_safety_map/core/safety_labelling.h"
+#include "stereo_safety_map/core/safety_map.h"
+#include "stereo_safety_map/core/voxel_grid.h"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+struct SafetyMapperConfig {
+  VoxelGridConfig grid;
+  HeightMapConfig height_map;
+  GroundSegmentationConfig segmentation;
+  PlaneFitConfig plane_fit;
+  SafetyLabellingConfig labelling;
+
+  /// 000 Sec. IV: frames taken while the robot is stationary are discarded whole, their range
+  /// readings being highly correlated with the previous ones. A frame is stationary when the
+  /// camera moved less than both thresholds since the last integrated frame (values not in the
+  /// paper). The first frame is always integrated.
+  bool skip_stationary_frames = true;
+  double stationary_translation = 0.02;  ///< [m]
+  double stationary_rotation_deg = 1.0;  ///< [deg]
+
+  /// Keep the grid centred on the robot (000 Sec. IV: "we can have the grid move while centered
+  /// on the robot"). When false the window is placed by the first frame and stays there.
+  bool scroll_with_robot = true;
+
+  /// Empty when valid, otherwise a message naming the offending parameter and its range.
+  std::string validate() const;
+};
+
+/// Wall-clock time of each stage of the last processed frame [ms].
+struct StageTimings {
+  double integrate_ms = 0.0;
+  double height_map_ms = 0.0;
+  double segmentation_ms = 0.0;
+  double plane_fit_ms = 0.0;
+  double labelling_ms = 0.0;
+  double total_ms = 0.0;
+};
+
+/// What integrateFrame() did with a frame.
+enum class FrameStatus : std::uint8_t {
+  kIntegrated = 0,
+  kStationary,            ///< camera has not moved since the last integrated frame
+  kEmptyInput,            ///< no points
+  kInvalidPose,           ///< non-finite or non-rigid T_fixed_sensor
+  kInvalidRobotPosition,  ///< non-finite robot base position
+  kCameraOutsideGrid,     ///< camera origin outside the (recentred) grid window
+};
+const char* toString(FrameStatus s);
+
+struct FrameResult {
+  FrameStatus status = FrameStatus::kIntegrated;
+  IntegrationStats integration;     ///< zeros when not integrated
+  std::size_t voxels_scrolled = 0;  ///< voxels cleared by recentring the grid
+  StageTimings timings;             ///< zeros when not integrated
+};
+
+class SafetyMapper {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit SafetyMapper(const SafetyMapperConfig& config = SafetyMapperConfig());
+
+  const SafetyMapperConfig& config() const { return config_; }
+
+  /// Processes one frame: checks it, recentres the grid on the robot (first frame, or every
+  /// frame when scrolling), integrates the points (sensor frame, `T_fixed_sensor` maps them to
+  /// the fixed frame) and recomputes the safety map for `robot_base_position` (fixed frame,
+  /// the point of the robot's base on the ground). Returns false when the frame was skipped;
+  /// `out->status` says why, no point is integrated and the map is left as it was (only for
+  /// kCameraOutsideGrid has the grid already been recentred on the valid robot position).
+  bool integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
+                      const Eigen::Isometry3f& T_fixed_sensor,
+                      const Eigen::Vector3f& robot_base_position, FrameResult* out = nullptr);
+
+  /// Height map, segmentation, plane fit and labelling of the current grid for a robot at
+  /// `robot_base_position` (no grid update). A non-finite position gives a map with every cell
+  /// Unknown and no segments.
+  const SafetyMap& computeSafetyMap(const Eigen::Vector3f& robot_base_position);
+
+  /// The last computed map (empty before the first).
+  const SafetyMap& safetyMap() const { return map_; }
+  /// Timings of the last integrateFrame() / computeSafetyMap().
+  const StageTimings& lastTimings() const { return timings_; }
+
+  /// Clears the grid and the map and forgets the last pose: the next frame counts as the first
+  /// (always integrated; places the window even when not scrolling).
+  void reset();
+
+  const VoxelGrid& grid() const { return grid_; }
+  /// Mutable access, e.g. to fuse external cues with setLogOdds().
+  VoxelGrid& grid() { return grid_; }
+  const HeightMap& heightMap() const { return height_map_; }
+  const GroundSegments& segments() const { return segments_; }
+  const std::vector<GroundPlane>& planes() const { return planes_; }
+  std::uint32_t framesIntegrated() const { return frames_integrated_; }
+
+ private:
+  SafetyMapperConfig config_;
+  VoxelGrid grid_;
+  HeightMap height_map_;
+  GroundSegmentation segmentation_;
+  PlaneFitter plane_fitter_;
+  SafetyLabelling labelling_;
+
+  GroundSegments segments_;
+  std::vector<GroundPlane> planes_;
+  SafetyMap map_;
+  StageTimings timings_;
+
+  bool has_last_pose_ = false;
+  bool grid_placed_ = false;
+  Eigen::Isometry3f last_pose_ = Eigen::Isometry3f::Identity();
+  std::uint32_t frames_integrated_ = 0;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,361 @@
+#include "stereo_safety_map/core/disparity_filters.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+namespace stereo_safety_map {
+
+namespace {
+
+bool isFloatImage(const cv::Mat* m) {
+  return m != nullptr && !m->empty() && m->type() == CV_32FC1 && m->dims == 2;
+}
+
+template <typename T>
+std::string rangeError(const char* name, T value, const char* range) {
+  std::ostringstream s;
+  s << name << " = " << value << " must be in " << range;
+  return s.str();
+}
+
+// Copies `src` into the interior of `dst` with every invalid pixel as exactly 0, surrounded by
+// `border` zero rows / columns (plus `extra_right` more zero columns), so that neighbour look-ups
+// need no bounds checks.
+void copyWithInvalidBorder(const cv::Mat& src, int border, int extra_right, cv::Mat* dst) {
+  dst->create(src.rows + 2 * border, src.cols + 2 * border + extra_right, CV_32FC1);
+  const std::size_t row_bytes = static_cast<std::size_t>(dst->cols) * sizeof(float);
+  for (int y = 0; y < border; ++y) {
+    std::memset(dst->ptr<float>(y), 0, row_bytes);
+    std::memset(dst->ptr<float>(dst->rows - 1 - y), 0, row_bytes);
+  }
+  for (int y = 0; y < src.rows; ++y) {
+    const float* in = src.ptr<float>(y);
+    float* out = dst->ptr<float>(y + border);
+    std::fill(out, out + border, 0.0f);
+    std::fill(out + border + src.cols, out + dst->cols, 0.0f);
+    out += border;
+    for (int x = 0; x < src.cols; ++x)
+      out[x] = isValidDisparity(in[x]) ? in[x] : 0.0f;
+  }
+}
+
+// Adds, per column, whether one neighbour is valid and whether it agrees with the centre.
+// Distinct buffers (__restrict) and a length that is a multiple of 8 let -O2 vectorise it.
+void accumulateAgreement(const float* __restrict neighbour, const float* __restrict centre,
+                         float tolerance, int n, float* __restrict valid, float* __restrict agree) {
+  for (int x = 0; x < n; ++x) {
+    const float v = neighbour[x];
+    const float ok = v > 0.0f ? 1.0f : 0.0f;
+    valid[x] += ok;
+    agree[x] += std::fabs(v - centre[x]) <= tolerance ? ok : 0.0f;
+  }
+}
+
+}  // namespace
+
+int sanitizeDisparity(cv::Mat* disparity) {
+  if (!isFloatImage(disparity)) return -1;
+  int rewritten = 0;
+  for (int y = 0; y < disparity->rows; ++y) {
+    float* row = disparity->ptr<float>(y);
+    for (int x = 0; x < disparity->cols; ++x) {
+      const float d = row[x];
+      if (!isValidDisparity(d) && d != kInvalidDisparity) {
+        row[x] = kInvalidDisparity;
+        ++rewritten;
+      }
+    }
+  }
+  return rewritten;
+}
+
+int countValidDisparities(const cv::Mat& disparity) {
+  if (!isFloatImage(&disparity)) return -1;
+  int valid = 0;
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* row = disparity.ptr<float>(y);
+    for (int x = 0; x < disparity.cols; ++x)
+      valid += isValidDisparity(row[x]) ? 1 : 0;
+  }
+  return valid;
+}
+
+// ------------------------------------------------------------------------------------------------
+std::string TextureValidationConfig::validate() const {
+  if (!(log_sigma > 0.0 && log_sigma <= 10.0)) return rangeError("log_sigma", log_sigma, "(0, 10]");
+  if (window_size < 1 || window_size > 255 || window_size % 2 == 0) {
+    return rangeError("window_size", window_size, "odd values of [1, 255]");
+  }
+  if (!(min_energy >= 0.0 && std::isfinite(min_energy))) {
+    return rangeError("min_energy", min_energy, "[0, inf)");
+  }
+  return {};
+}
+
+int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* disparity,
+                     DisparityFilterWorkspace* workspace) {
+  if (!isFloatImage(disparity) || left.empty() || left.type() != CV_8UC1 ||
+      left.size() != disparity->size() || !config.validate().empty()) {
+    return -1;
+  }
+  DisparityFilterWorkspace local;
+  DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+
+  // Texture energy of the matching window: mean |LoG| of the left image (002, Sec. 2.2).
+  left.convertTo(ws.grey_f, CV_32F);
+  cv::GaussianBlur(ws.grey_f, ws.blurred, cv::Size(), config.log_sigma, config.log_sigma,
+                   cv::BORDER_REPLICATE);
+  cv::Laplacian(ws.blurred, ws.log, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::absdiff(ws.log, cv::Scalar::all(0.0), ws.log);
+  cv::boxFilter(ws.log, ws.energy, CV_32F, cv::Size(config.window_size, config.window_size),
+                cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+
+  const float min_energy = static_cast<float>(config.min_energy);
+  int removed = 0;
+  for (int y = 0; y < disparity->rows; ++y) {
+    float* d = disparity->ptr<float>(y);
+    const float* e = ws.energy.ptr<float>(y);
+    for (int x = 0; x < disparity->cols; ++x) {
+      if (isValidDisparity(d[x]) && e[x] < min_energy) {
+        d[x] = kInvalidDisparity;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
+// ------------------------------------------------------------------------------------------------
+std::string MatchUniquenessConfig::validate() const {
+  if (uniqueness_ratio < 0 || uniqueness_ratio > 100) {
+    return rangeError("uniqueness_ratio", uniqueness_ratio, "[0, 100]");
+  }
+  if (!(max_normalized_cost >= 0.0 && max_normalized_cost <= 1.0)) {
+    return rangeError("max_normalized_cost", max_normalized_cost, "[0, 1]");
+  }
+  return {};
+}
+
+int filterNonUniqueMatches(const cv::Mat& cost_volume, int min_disparity,
+                           const MatchUniquenessConfig& config, cv::Mat* disparity) {
+  if (!isFloatImage(disparity) || cost_volume.dims != 3 || cost_volume.type() != CV_32FC1 ||
+      cost_volume.size[0] != disparity->rows || cost_volume.size[1] != disparity->cols ||
+      cost_volume.size[2] < 1 || !config.validate().empty()) {
+    return -1;
+  }
+  const int num_disp = cost_volume.size[2];
+  const bool ratio_test = config.uniqueness_ratio > 0;
+  const float ratio = 1.0f + static_cast<float>(config.uniqueness_ratio) / 100.0f;
+  const bool normalized_test = config.max_normalized_cost > 0.0;
+  const double max_normalized = config.max_normalized_cost;
+
+  int removed = 0;
+  for (int y = 0; y < disparity->rows; ++y) {
+    float* drow = disparity->ptr<float>(y);
+    for (int x = 0; x < disparity->cols; ++x) {
+      const float d = drow[x];
+      if (!isValidDisparity(d)) continue;
+      const long k1 = std::lround(d) - min_disparity;
+      bool reject = k1 < 0 || k1 >= num_disp;
+      if (!reject) {
+        const float* cost = cost_volume.ptr<float>(y, x);
+        const float best = cost[k1];
+        reject = !std::isfinite(best);
+        if (!reject && ratio_test) {
+          // The runner-up must lose by uniqueness_ratio %, its sub-pixel neighbours excepted
+          // (same rule as OpenCV's uniquenessRatio) (002, Sec. 2.2).
+          const float threshold = best * ratio;
+          for (int k = 0; k < num_disp && !reject; ++k) {
+            if ((k < k1 - 1 || k > k1 + 1) && cost[k] <= threshold) reject = true;
+          }
+        }
+        if (!reject && normalized_test) {
+          // Best score over the sum of all scores must be below the threshold (002, Sec. 2.2);
+          // an all-zero cost row is as ambiguous as it gets.
+          double sum = 0.0;
+          for (int k = 0; k < num_disp; ++k)
+            sum += cost[k];
+          reject = !(sum > 0.0) || static_cast<double>(best) / sum >= max_normalized;
+        }
+      }
+      if (reject) {
+        drow[x] = kInvalidDisparity;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
+// ------------------------------------------------------------------------------------------------
+std::string LeftRightCheckConfig::validate() const {
+  if (!(max_difference >= 0.0 && std::isfinite(max_difference))) {
+    return rangeError("max_difference", max_difference, "[0, inf)");
+  }
+  return {};
+}
+
+int filterLeftRightInconsistent(const cv::Mat& right_disparity, const LeftRightCheckConfig& config,
+                                cv::Mat* disparity) {
+  if (!isFloatImage(disparity) || !isFloatImage(&right_disparity) ||
+      right_disparity.size() != disparity->size() || !config.validate().empty()) {
+    return -1;
+  }
+  const float tolerance = static_cast<float>(config.max_difference);
+  const int cols = disparity->cols;
+  int removed = 0;
+  for (int y = 0; y < disparity->rows; ++y) {
+    float* left_row = disparity->ptr<float>(y);
+    const float* right_row = right_disparity.ptr<float>(y);
+    for (int x = 0; x < cols; ++x) {
+      const float d = left_row[x];
+      if (!isValidDisparity(d)) continue;
+      // d is finite and > 0, so the rounding cannot overflow.
+      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - d + 0.5f));
+      bool reject;
+      if (xr < 0) {
+        reject = true;  // the match lies outside the right image: nothing can confirm it
+      } else {
+        const float dr = right_row[xr];
+        reject =
+            isValidDisparity(dr) ? std::fabs(d - dr) > tolerance : config.reject_if_right_invalid;
+      }
+      if (reject) {
+        left_row[x] = kInvalidDisparity;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
+// ------------------------------------------------------------------------------------------------
+std::string SpikeRemovalConfig::validate() const {
+  if (!(max_difference > 0.0 && std::isfinite(max_difference))) {
+    return rangeError("max_difference", max_difference, "(0, inf)");
+  }
+  if (min_region_size < 1) return rangeError("min_region_size", min_region_size, "[1, inf)");
+  return {};
+}
+
+int filterSpikes(const SpikeRemovalConfig& config, cv::Mat* disparity,
+                 DisparityFilterWorkspace* workspace) {
+  if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
+  DisparityFilterWorkspace local;
+  DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+
+  // One-pixel invalid border: the flood fill below needs no bounds checks. A pixel is labelled
+  // by negating its value (valid values are > 0, invalid ones are 0), so no label image is needed.
+  copyWithInvalidBorder(*disparity, 1, 0, &ws.surface);
+  const int stride = ws.surface.cols;
+  float* surface = ws.surface.ptr<float>(0);
+  const std::size_t capacity = static_cast<std::size_t>(disparity->rows) * disparity->cols;
+  if (ws.region.capacity() < capacity) ws.region.reserve(capacity);
+
+  const float tolerance = static_cast<float>(config.max_difference);
+  const std::size_t min_size = static_cast<std::size_t>(config.min_region_size);
+  const int offsets[4] = {-1, 1, -stride, stride};  // 4-neighbourhood N(i) (002, Sec. 4.2)
+  int removed = 0;
+  for (int y = 1; y <= disparity->rows; ++y) {
+    for (int x = 1; x <= disparity->cols; ++x) {
+      const int seed = y * stride + x;
+      if (!(surface[seed] > 0.0f)) continue;  // invalid or already labelled
+      // Breadth-first flood fill of one continuous-disparity surface: j joins i's surface when
+      // |d_j - d_i| <= 1 (002, Sec. 4.2). The queue keeps every pixel it saw, so at the end it
+      // is the surface's pixel list.
+      ws.region.clear();
+      ws.region.push_back(seed);
+      surface[seed] = -surface[seed];
+      for (std::size_t head = 0; head < ws.region.size(); ++head) {
+        const int i = ws.region[head];
+        const float di = -surface[i];
+        for (int k = 0; k < 4; ++k) {
+          const int j = i + offsets[k];
+          const float dj = surface[j];
+          if (dj > 0.0f && std::fabs(dj - di) <= tolerance) {
+            surface[j] = -dj;
+            ws.region.push_back(j);
+          }
+        }
+      }
+      // Surfaces too small to be real are mismatches (002, Sec. 4.2).
+      if (ws.region.size() < min_size) {
+        for (const int q : ws.region) {
+          disparity->ptr<float>(q / stride - 1)[q % stride - 1] = kInvalidDisparity;
+        }
+        removed += static_cast<int>(ws.region.size());
+      }
+    }
+  }
+  return removed;
+}
+
+// ------------------------------------------------------------------------------------------------
+std::string NeighbourConsistencyConfig::validate() const {
+  if (window_radius < 1 || window_radius > 5) {
+    return rangeError("window_radius", window_radius, "[1, 5]");
+  }
+  if (!(max_difference >= 0.0 && std::isfinite(max_difference))) {
+    return rangeError("max_difference", max_difference, "[0, inf)");
+  }
+  if (!(min_agreeing_fraction > 0.0 && min_agreeing_fraction <= 1.0)) {
+    return rangeError("min_agreeing_fraction", min_agreeing_fraction, "(0, 1]");
+  }
+  return {};
+}
+
+int filterInconsistentNeighbours(const NeighbourConsistencyConfig& config, cv::Mat* disparity,
+                                 DisparityFilterWorkspace* workspace) {
+  if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
+  DisparityFilterWorkspace local;
+  DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+
+  const int r = config.window_radius;
+  const int cols = disparity->cols;
+  // Rows are processed in whole blocks of 8 (the extra columns are invalid padding), which lets
+  // the compiler vectorise the loops below even at -O2.
+  const int cols8 = (cols + 7) & ~7;
+  // Judged against an untouched copy so that the result does not depend on scan order.
+  copyWithInvalidBorder(*disparity, r, cols8 - cols, &ws.padded);
+  ws.valid_count.resize(static_cast<std::size_t>(cols8));
+  ws.agree_count.resize(static_cast<std::size_t>(cols8));
+  float* valid_count = ws.valid_count.data();
+  float* agree_count = ws.agree_count.data();
+
+  const float tolerance = static_cast<float>(config.max_difference);
+  const float fraction = static_cast<float>(config.min_agreeing_fraction);
+  const float isolated = config.remove_isolated ? 1.0f : 0.0f;
+  int removed = 0;
+  for (int y = 0; y < disparity->rows; ++y) {
+    const float* centre = ws.padded.ptr<float>(y + r) + r;
+    std::fill(valid_count, valid_count + cols8, 0.0f);
+    std::fill(agree_count, agree_count + cols8, 0.0f);
+    // One window offset at a time over the whole row: branch-free, vectorisable inner loops.
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        if (dy == 0 && dx == 0) continue;
+        accumulateAgreement(ws.padded.ptr<float>(y + r + dy) + r + dx, centre, tolerance, cols8,
+                            valid_count, agree_count);
+      }
+    }
+    // Keep a reading when at least min_agreeing_fraction of its valid neighbours agree with it
+    // (000, Sec. III). Counts are integers: the 1e-3 margin only absorbs rounding of the product.
+    float* out = disparity->ptr<float>(y);
+    for (int x = 0; x < cols; ++x) {
+      if (!(centre[x] > 0.0f)) continue;
+      const float n = valid_count[x];
+      const bool reject = n == 0.0f ? isolated != 0.0f : agree_count[x] < fraction * n - 1e-3f;
+      if (reject) {
+        out[x] = kInvalidDisparity;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
+}  // namespace stereo_safety_map

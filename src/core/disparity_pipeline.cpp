@@ -1,0 +1,448 @@
+#include "stereo_safety_map/core/disparity_pipeline.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <sstream>
+
+namespace stereo_safety_map {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string prefixed(const char* prefix, const std::string& message) {
+  return message.empty() ? message : std::string(prefix) + message;
+}
+
+std::string describe(const cv::Mat& m) {
+  std::ostringstream s;
+  s << m.cols << "x" << m.rows << " " << cv::typeToString(m.type());
+  return s.str();
+}
+
+// Fills the `pad` leftmost columns of `m` with a copy of column `pad` (replicated border).
+template <typename T>
+void replicateLeftColumns(int pad, cv::Mat* m) {
+  for (int y = 0; y < m->rows; ++y) {
+    T* row = m->ptr<T>(y);
+    std::fill(row, row + pad, row[pad]);
+  }
+}
+
+}  // namespace
+
+const char* disparityStepName(DisparityStep step) {
+  switch (step) {
+    case DisparityStep::kPreprocess:
+      return "preprocess";
+    case DisparityStep::kMatching:
+      return "matching";
+    case DisparityStep::kUniqueness:
+      return "uniqueness";
+    case DisparityStep::kTexture:
+      return "texture";
+    case DisparityStep::kRightMatching:
+      return "right_matching";
+    case DisparityStep::kLeftRight:
+      return "left_right";
+    case DisparityStep::kNeighbourConsistency:
+      return "neighbour_consistency";
+    case DisparityStep::kSpikeRemoval:
+      return "spike_removal";
+  }
+  return "unknown";
+}
+
+cv::Vec3b disparityRemovalColour(DisparityRemoval reason) {
+  switch (reason) {
+    case DisparityRemoval::kValid:
+      return cv::Vec3b(255, 255, 255);
+    case DisparityRemoval::kMatcher:
+      return cv::Vec3b(0, 0, 0);
+    case DisparityRemoval::kUniqueness:
+      return cv::Vec3b(0, 200, 0);
+    case DisparityRemoval::kTexture:
+      return cv::Vec3b(255, 0, 0);
+    case DisparityRemoval::kLeftRight:
+      return cv::Vec3b(0, 0, 255);
+    case DisparityRemoval::kNeighbour:
+      return cv::Vec3b(0, 255, 255);
+    case DisparityRemoval::kSpike:
+      return cv::Vec3b(255, 0, 255);
+  }
+  return cv::Vec3b(0, 0, 0);
+}
+
+std::string DisparityPipelineConfig::validate() const {
+  std::ostringstream s;
+  if (min_disparity < 0 || min_disparity > 256) {
+    s << "min_disparity = " << min_disparity << " must be in [0, 256]";
+  } else if (num_disparities < 16 || num_disparities > 256 || num_disparities % 16 != 0) {
+    s << "num_disparities = " << num_disparities << " must be a multiple of 16 in [16, 256]";
+  } else if (block_size % 2 == 0 || block_size > 255 ||
+             block_size < (matcher == StereoMatcherType::kBlockMatching ? 5 : 1)) {
+    s << "block_size = " << block_size << " must be odd and in "
+      << (matcher == StereoMatcherType::kBlockMatching ? "[5, 255] for block matching"
+                                                       : "[1, 255] for SGBM");
+  } else if (pre_filter_cap < 1 || pre_filter_cap > 63) {
+    s << "pre_filter_cap = " << pre_filter_cap << " must be in [1, 63]";
+  } else if (bm_texture_threshold < 0) {
+    s << "bm_texture_threshold = " << bm_texture_threshold << " must be >= 0";
+  } else if (speckle_window_size < 0) {
+    s << "speckle_window_size = " << speckle_window_size << " must be >= 0";
+  } else if (speckle_range < 0 || speckle_range > 64) {
+    s << "speckle_range = " << speckle_range << " must be in [0, 64]";
+  } else if (sgbm_p1 < 0 || sgbm_p2 < 0) {
+    s << "sgbm_p1 = " << sgbm_p1 << " and sgbm_p2 = " << sgbm_p2 << " must be >= 0";
+  } else if (sgbm_p1 > 0 && sgbm_p2 > 0 && sgbm_p2 <= sgbm_p1) {
+    s << "sgbm_p2 = " << sgbm_p2 << " must be > sgbm_p1 = " << sgbm_p1;
+  }
+  if (!s.str().empty()) return s.str();
+
+  if (enable_uniqueness) {
+    const std::string e = prefixed("uniqueness.", uniqueness.validate());
+    if (!e.empty()) return e;
+    if (uniqueness.max_normalized_cost > 0.0) {
+      return "uniqueness.max_normalized_cost must be 0 in the pipeline: OpenCV's matchers expose "
+             "no cost volume (use uniqueness.uniqueness_ratio)";
+    }
+  }
+  if (enable_texture) {
+    const std::string e = prefixed("texture.", texture.validate());
+    if (!e.empty()) return e;
+  }
+  if (enable_left_right) {
+    const std::string e = prefixed("left_right.", left_right.validate());
+    if (!e.empty()) return e;
+  }
+  if (enable_neighbour_consistency) {
+    const std::string e = prefixed("neighbour_consistency.", neighbour_consistency.validate());
+    if (!e.empty()) return e;
+  }
+  if (enable_spike_removal) {
+    const std::string e = prefixed("spike_removal.", spike_removal.validate());
+    if (!e.empty()) return e;
+  }
+  return {};
+}
+
+// ------------------------------------------------------------------------------------------------
+bool DisparityPipeline::MatcherKey::operator==(const MatcherKey& o) const {
+  return type == o.type && min_disparity == o.min_disparity &&
+         num_disparities == o.num_disparities && block_size == o.block_size &&
+         pre_filter_cap == o.pre_filter_cap && texture_threshold == o.texture_threshold &&
+         uniqueness_ratio == o.uniqueness_ratio && speckle_window_size == o.speckle_window_size &&
+         speckle_range == o.speckle_range && p1 == o.p1 && p2 == o.p2 && three_way == o.three_way;
+}
+
+DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineConfig& c) {
+  MatcherKey k;
+  k.type = c.matcher;
+  k.min_disparity = c.min_disparity;
+  k.num_disparities = c.num_disparities;
+  k.block_size = c.block_size;
+  k.pre_filter_cap = c.pre_filter_cap;
+  k.texture_threshold = c.bm_texture_threshold;
+  k.uniqueness_ratio = c.enable_uniqueness ? c.uniqueness.uniqueness_ratio : 0;
+  k.speckle_window_size = c.speckle_window_size;
+  k.speckle_range = c.speckle_range;
+  // OpenCV's customary SGBM penalties for one channel.
+  const int area = c.block_size * c.block_size;
+  k.p1 = c.sgbm_p1 > 0 ? c.sgbm_p1 : 8 * area;
+  k.p2 = c.sgbm_p2 > 0 ? c.sgbm_p2 : std::max(32 * area, k.p1 + 1);
+  k.three_way = c.sgbm_three_way;
+  return k;
+}
+
+cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
+                                                            int uniqueness_ratio) {
+  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match.
+  if (k.type == StereoMatcherType::kSemiGlobal) {
+    return cv::StereoSGBM::create(
+        k.min_disparity, k.num_disparities, k.block_size, k.p1, k.p2, -1, k.pre_filter_cap,
+        uniqueness_ratio, k.speckle_window_size, k.speckle_range,
+        k.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
+  }
+  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(k.num_disparities, k.block_size);
+  bm->setMinDisparity(k.min_disparity);
+  bm->setPreFilterType(cv::StereoBM::PREFILTER_XSOBEL);
+  bm->setPreFilterCap(k.pre_filter_cap);
+  bm->setTextureThreshold(k.texture_threshold);
+  // 002's "quality of match" test (Sec. 2.2) as OpenCV implements it on the SAD costs.
+  bm->setUniquenessRatio(uniqueness_ratio);
+  bm->setSpeckleWindowSize(k.speckle_window_size);
+  bm->setSpeckleRange(k.speckle_range);
+  bm->setDisp12MaxDiff(-1);
+  return bm;
+}
+
+void DisparityPipeline::ensureMatchers() {
+  const MatcherKey key = keyOf(config_);
+  if (left_matcher_ && key == key_) return;
+  left_matcher_ = createMatcher(key, key.uniqueness_ratio);
+  right_matcher_ = createMatcher(key, key.uniqueness_ratio);
+  plain_matcher_.reset();
+  key_ = key;
+  ++matcher_builds_;
+}
+
+bool DisparityPipeline::toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat** grey,
+                               const char* which, std::string* error) const {
+  switch (in.channels()) {
+    case 1:
+      *grey = &in;
+      return true;
+    case 3:
+      cv::cvtColor(in, *buffer, cv::COLOR_BGR2GRAY);
+      *grey = buffer;
+      return true;
+    case 4:
+      cv::cvtColor(in, *buffer, cv::COLOR_BGRA2GRAY);
+      *grey = buffer;
+      return true;
+    default:
+      if (error != nullptr) {
+        *error = std::string(which) + " image has unsupported type " + describe(in) +
+                 " (expected CV_8UC1, CV_8UC3 or CV_8UC4)";
+      }
+      return false;
+  }
+}
+
+// OpenCV matchers return fixed point disparities (1/16 px); anything <= 0 (incl. their
+// "no match" value (min_disparity - 1) * 16) becomes kInvalidDisparity.
+void DisparityPipeline::convertMatcherOutput(const cv::Mat& raw, cv::Mat* disparity) const {
+  raw.convertTo(*disparity, CV_32F, 1.0 / cv::StereoMatcher::DISP_SCALE);
+  cv::threshold(*disparity, *disparity, 0.0, 0.0, cv::THRESH_TOZERO);
+}
+
+void DisparityPipeline::markRemoved(const cv::Mat& disparity, DisparityRemoval reason) {
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    std::uint8_t* r = removal_.ptr<std::uint8_t>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (r[x] == static_cast<std::uint8_t>(DisparityRemoval::kValid) && !(d[x] > 0.0f)) {
+        r[x] = static_cast<std::uint8_t>(reason);
+      }
+    }
+  }
+}
+
+void DisparityPipeline::renderDebugImage(const cv::Mat& disparity) {
+  debug_image_.create(disparity.size(), CV_8UC3);
+  std::array<cv::Vec3b, 7> colours;
+  for (int i = 0; i < 7; ++i)
+    colours[i] = disparityRemovalColour(static_cast<DisparityRemoval>(i));
+  const float lo = static_cast<float>(config_.min_disparity);
+  const float scale = 191.0f / static_cast<float>(config_.num_disparities);
+  for (int y = 0; y < disparity.rows; ++y) {
+    const float* d = disparity.ptr<float>(y);
+    const std::uint8_t* r = removal_.ptr<std::uint8_t>(y);
+    cv::Vec3b* out = debug_image_.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < disparity.cols; ++x) {
+      if (r[x] == static_cast<std::uint8_t>(DisparityRemoval::kValid)) {
+        // Grey from 64 (farthest) to 255 (nearest), never black so it cannot read as kMatcher.
+        const float v = std::min(255.0f, std::max(64.0f, 64.0f + (d[x] - lo) * scale));
+        const auto g = static_cast<std::uint8_t>(v);
+        out[x] = cv::Vec3b(g, g, g);
+      } else {
+        out[x] = colours[std::min<int>(r[x], 6)];
+      }
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::Mat* disparity_out,
+                                DisparityStats* stats, std::string* error) {
+  const Clock::time_point start = Clock::now();
+  DisparityStats local_stats;
+  DisparityStats& st = stats != nullptr ? *stats : local_stats;
+  st = DisparityStats();
+  auto fail = [error](const std::string& message) {
+    if (error != nullptr) *error = message;
+    return false;
+  };
+
+  // --- input checks: nothing below may throw on user input.
+  if (disparity_out == nullptr) return fail("disparity_out is null");
+  if (disparity_out == &left || disparity_out == &right) {
+    return fail("disparity_out must not be one of the input images");
+  }
+  const std::string config_error = config_.validate();
+  if (!config_error.empty()) return fail("invalid config: " + config_error);
+  if (left.empty() || right.empty()) {
+    return fail(std::string(left.empty() ? "left" : "right") + " image is empty");
+  }
+  if (left.dims != 2 || right.dims != 2) return fail("images must be two-dimensional");
+  if (left.size() != right.size()) {
+    return fail("left (" + describe(left) + ") and right (" + describe(right) +
+                ") images differ in size");
+  }
+  for (const cv::Mat* m : {&left, &right}) {
+    if (m->depth() != CV_8U || (m->channels() != 1 && m->channels() != 3 && m->channels() != 4)) {
+      return fail(std::string(m == &left ? "left" : "right") + " image has unsupported type " +
+                  describe(*m) + " (expected CV_8UC1, CV_8UC3 or CV_8UC4)");
+    }
+  }
+  const int min_width = config_.min_disparity + config_.num_disparities + config_.block_size;
+  if (left.cols <= min_width || left.rows <= config_.block_size) {
+    std::ostringstream s;
+    s << "images " << left.cols << "x" << left.rows << " too small: need width > min_disparity "
+      << "+ num_disparities + block_size = " << min_width
+      << " and height > block_size = " << config_.block_size;
+    return fail(s.str());
+  }
+
+  try {
+    const cv::Size size = left.size();
+    st.pixels = size.area();
+    DisparityStepStats& pre = st.step(DisparityStep::kPreprocess);
+    ensureMatchers();
+    const cv::Mat* left_grey = nullptr;
+    const cv::Mat* right_grey = nullptr;
+    if (!toGrey(left, &left_grey_, &left_grey, "left", error) ||
+        !toGrey(right, &right_grey_, &right_grey, "right", error)) {
+      return false;
+    }
+    pre.ran = true;
+    pre.valid_before = pre.valid_after = 0;
+    pre.ms = msSince(start);
+
+    // --- 1. matching; the uniqueness test (002, Sec. 2.2) runs inside the matcher.
+    cv::Mat& disparity = *disparity_out;
+    Clock::time_point t = Clock::now();
+    left_matcher_->compute(*left_grey, *right_grey, raw_);
+    convertMatcherOutput(raw_, &disparity);
+    int valid = cv::countNonZero(disparity);
+    DisparityStepStats& match = st.step(DisparityStep::kMatching);
+    match.ran = true;
+    match.valid_before = st.pixels;
+    match.valid_after = valid;
+    match.ms = msSince(t);
+
+    if (config_.debug) {
+      removal_.create(size, CV_8UC1);
+      const bool attribute_uniqueness =
+          config_.enable_uniqueness && config_.uniqueness.uniqueness_ratio > 0;
+      if (attribute_uniqueness) {
+        // Same matcher without the test: what it would have accepted, the test removed.
+        t = Clock::now();
+        if (!plain_matcher_) plain_matcher_ = createMatcher(key_, 0);
+        plain_matcher_->compute(*left_grey, *right_grey, raw_);
+        convertMatcherOutput(raw_, &plain_disparity_);
+        DisparityStepStats& uniq = st.step(DisparityStep::kUniqueness);
+        uniq.ran = true;
+        uniq.valid_before = cv::countNonZero(plain_disparity_);
+        uniq.valid_after = valid;
+        uniq.ms = msSince(t);
+      }
+      const cv::Mat& reference = attribute_uniqueness ? plain_disparity_ : disparity;
+      for (int y = 0; y < size.height; ++y) {
+        const float* before = reference.ptr<float>(y);
+        const float* after = disparity.ptr<float>(y);
+        std::uint8_t* r = removal_.ptr<std::uint8_t>(y);
+        for (int x = 0; x < size.width; ++x) {
+          r[x] = static_cast<std::uint8_t>(!(before[x] > 0.0f) ? DisparityRemoval::kMatcher
+                                           : after[x] > 0.0f   ? DisparityRemoval::kValid
+                                                               : DisparityRemoval::kUniqueness);
+        }
+      }
+    }
+
+    // Runs one post-filter step with its bookkeeping.
+    auto run_step = [&](DisparityStep step, DisparityRemoval reason, auto&& filter) {
+      DisparityStepStats& s = st.step(step);
+      const Clock::time_point t0 = Clock::now();
+      const int removed = filter();
+      s.ran = true;
+      s.ms = msSince(t0);
+      s.valid_before = valid;
+      if (removed > 0) valid -= removed;
+      s.valid_after = valid;
+      if (config_.debug && removed > 0) markRemoved(disparity, reason);
+      return removed >= 0;
+    };
+
+    // --- 2. texture validation (002, Sec. 2.2).
+    if (config_.enable_texture &&
+        !run_step(DisparityStep::kTexture, DisparityRemoval::kTexture, [&] {
+          return filterLowTexture(*left_grey, config_.texture, &disparity, &workspace_);
+        })) {
+      return fail("texture validation rejected its input");
+    }
+
+    // --- 3. left-right consistency: right-to-left disparities from the mirrored pair. Mirroring
+    // turns "right pixel x_r matches left pixel x_r + d" into an ordinary left-to-right search.
+    // The pair is padded on the side where the matcher leaves no result (the first
+    // min_disparity + num_disparities + block_size / 2 columns), so that every right pixel gets
+    // a disparity; candidates falling into the padding lie outside the left image.
+    right_disparity_.release();
+    if (config_.enable_left_right) {
+      t = Clock::now();
+      const int pad = config_.min_disparity + config_.num_disparities + config_.block_size / 2;
+      const int w = size.width;
+      mirrored_left_.create(size.height, w + pad, CV_8UC1);
+      mirrored_right_.create(size.height, w + pad, CV_8UC1);
+      cv::Mat roi_left = mirrored_left_.colRange(pad, pad + w);
+      cv::Mat roi_right = mirrored_right_.colRange(pad, pad + w);
+      cv::flip(*right_grey, roi_left, 1);
+      cv::flip(*left_grey, roi_right, 1);
+      replicateLeftColumns<std::uint8_t>(pad, &mirrored_left_);
+      replicateLeftColumns<std::uint8_t>(pad, &mirrored_right_);
+      right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
+      cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
+      convertMatcherOutput(raw_right_, &right_disparity_);
+      DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
+      rm.ran = true;
+      rm.valid_before = 0;
+      rm.valid_after = cv::countNonZero(right_disparity_);
+      rm.ms = msSince(t);
+
+      if (!run_step(DisparityStep::kLeftRight, DisparityRemoval::kLeftRight, [&] {
+            return filterLeftRightInconsistent(right_disparity_, config_.left_right, &disparity);
+          })) {
+        return fail("left-right check rejected its input");
+      }
+    }
+
+    // --- 4. readings unlike their neighbours (000, Sec. III).
+    if (config_.enable_neighbour_consistency &&
+        !run_step(DisparityStep::kNeighbourConsistency, DisparityRemoval::kNeighbour, [&] {
+          return filterInconsistentNeighbours(config_.neighbour_consistency, &disparity,
+                                              &workspace_);
+        })) {
+      return fail("neighbour consistency filter rejected its input");
+    }
+
+    // --- 5. spike removal by disparity-surface segmentation (002, Sec. 4.2).
+    if (config_.enable_spike_removal &&
+        !run_step(DisparityStep::kSpikeRemoval, DisparityRemoval::kSpike,
+                  [&] { return filterSpikes(config_.spike_removal, &disparity, &workspace_); })) {
+      return fail("spike removal rejected its input");
+    }
+
+    st.valid = valid;
+    if (config_.debug) {
+      renderDebugImage(disparity);
+    } else {
+      removal_.release();
+      debug_image_.release();
+    }
+    st.total_ms = msSince(start);
+    return true;
+  } catch (const cv::Exception& e) {
+    return fail(std::string("OpenCV error: ") + e.what());
+  } catch (const std::exception& e) {
+    return fail(std::string("error: ") + e.what());
+  }
+}
+
+}  // namespace stereo_safety_map

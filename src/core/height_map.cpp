@@ -1,0 +1,69 @@
+#include "stereo_safety_map/core/height_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace stereo_safety_map {
+
+std::string HeightMapConfig::validate() const {
+  if (!std::isfinite(robot_height) || robot_height <= 0.0 || robot_height > 100.0) {
+    return "robot_height must be in (0, 100] m";
+  }
+  return "";
+}
+
+HeightMap::HeightMap(const HeightMapConfig& config) : config_(config) {
+  const std::string err = config_.validate();
+  if (!err.empty()) throw std::invalid_argument("HeightMapConfig: " + err);
+}
+
+void HeightMap::reset(int min_u, int min_v, int width, int height) {
+  min_u_ = min_u;
+  min_v_ = min_v;
+  width_ = std::max(0, width);
+  height_ = std::max(0, height);
+  w_.assign(static_cast<std::size_t>(width_) * height_, kNoHeight);
+}
+
+void HeightMap::set(int u, int v, std::int32_t w) {
+  if (inside(u, v)) w_[index(u, v)] = w;
+}
+
+bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
+  const VoxelIndex lo = grid.minIndex();
+  reset(lo.u, lo.v, grid.sizeU(), grid.sizeV());
+  if (!std::isfinite(robot_base_z)) return false;
+
+  // A voxel counts when its centre w * l_v is strictly below the robot's top (000, Sec. V-A:
+  // the robot travels under occupied voxels higher than itself).
+  const double l = grid.config().voxel_size;
+  const double top = (static_cast<double>(robot_base_z) + config_.robot_height) / l;
+  // The 1e-4 voxel margin keeps a centre that is on the top up to float rounding of the base
+  // height (e.g. 0.4f + 1.5 = 1.9000000006) above it.
+  const double w_limit = std::ceil(top - 1e-4) - 1.0;
+  const int w_lo = lo.w;
+  const int w_hi_window = lo.w + grid.sizeW() - 1;
+  if (w_limit < static_cast<double>(w_lo)) {
+    top_w_ = w_lo - 1;
+    return true;  // the whole window is above the robot's top
+  }
+  const int w_hi = static_cast<int>(std::min<double>(w_limit, w_hi_window));
+  top_w_ = w_hi;
+
+  for (int v = lo.v; v < lo.v + height_; ++v) {
+    std::int32_t* row = &w_[static_cast<std::size_t>(v - lo.v) * width_];
+    for (int u = lo.u; u < lo.u + width_; ++u) {
+      // Scan down from the robot's top; the first occupied voxel is the column's height.
+      for (int w = w_hi; w >= w_lo; --w) {
+        if (grid.isOccupied(VoxelIndex{u, v, w})) {
+          row[u - lo.u] = w;
+          break;
+        }
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace stereo_safety_map

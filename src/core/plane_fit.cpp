@@ -1,0 +1,119 @@
+#include "stereo_safety_map/core/plane_fit.h"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace stereo_safety_map {
+
+namespace {
+constexpr double kRadToDeg = 57.29577951308232;
+}  // namespace
+
+std::string PlaneFitConfig::validate() const {
+  if (min_points < 3 || min_points > 1000000) return "min_points must be in [3, 1000000]";
+  if (!std::isfinite(min_xy_stddev) || min_xy_stddev <= 0.0 || min_xy_stddev > 10.0) {
+    return "min_xy_stddev must be in (0, 10] m";
+  }
+  return "";
+}
+
+void PlaneFitAccumulator::clear() {
+  *this = PlaneFitAccumulator();
+}
+
+void PlaneFitAccumulator::add(const Eigen::Vector3d& p) {
+  if (!p.allFinite()) return;
+  if (n_ == 0) ref_ = p;
+  const double x = p.x() - ref_.x(), y = p.y() - ref_.y(), z = p.z() - ref_.z();
+  ++n_;
+  sx_ += x;
+  sy_ += y;
+  sz_ += z;
+  sxx_ += x * x;
+  sxy_ += x * y;
+  syy_ += y * y;
+  sxz_ += x * z;
+  syz_ += y * z;
+  szz_ += z * z;
+}
+
+GroundPlane PlaneFitAccumulator::fit(const PlaneFitConfig& config) const {
+  GroundPlane plane;
+  plane.num_points = n_;
+  if (n_ == 0) return plane;
+  const double n = static_cast<double>(n_);
+  const double mx = sx_ / n, my = sy_ / n, mz = sz_ / n;
+  plane.centroid = ref_ + Eigen::Vector3d(mx, my, mz);
+  if (n_ < static_cast<std::size_t>(config.min_points)) return plane;
+
+  // Centred scatter. The shift to ref_ keeps the means small compared with the spread of a
+  // local segment, so these differences lose no significant digits.
+  Eigen::Matrix2d A;
+  A(0, 0) = sxx_ - n * mx * mx;
+  A(0, 1) = A(1, 0) = sxy_ - n * mx * my;
+  A(1, 1) = syy_ - n * my * my;
+  const Eigen::Vector2d rhs(sxz_ - n * mx * mz, syz_ - n * my * mz);
+  const double szz = szz_ - n * mz * mz;
+
+  // Degeneracy: the smallest eigenvalue of the xy scatter is n times the variance along the
+  // narrowest horizontal direction.
+  const double tr = A(0, 0) + A(1, 1);
+  const double det = A(0, 0) * A(1, 1) - A(0, 1) * A(0, 1);
+  const double disc = std::sqrt(std::max(0.0, 0.25 * tr * tr - det));
+  const double lambda_min = 0.5 * tr - disc;
+  if (!(lambda_min / n >= config.min_xy_stddev * config.min_xy_stddev)) return plane;
+
+  // Normal equations of the centred data: the 3x3 system of (x, y, 1) is block diagonal, the
+  // intercept follows from the means.
+  const Eigen::Vector2d ab = A.ldlt().solve(rhs);
+  if (!ab.allFinite()) return plane;
+  plane.a = ab.x();
+  plane.b = ab.y();
+  plane.c = plane.centroid.z() - plane.a * plane.centroid.x() - plane.b * plane.centroid.y();
+  plane.normal = Eigen::Vector3d(-plane.a, -plane.b, 1.0).normalized();
+  plane.slope_deg = std::atan(std::hypot(plane.a, plane.b)) * kRadToDeg;
+  // Residual sum of squares of the least-squares solution: S_zz - p^T S_xy,z.
+  const double rss = std::max(0.0, szz - ab.dot(rhs));
+  plane.residual_rms = std::sqrt(rss / n);
+  plane.valid = std::isfinite(plane.c);
+  return plane;
+}
+
+GroundPlane fitPlane(const std::vector<Eigen::Vector3d>& points, const PlaneFitConfig& config) {
+  PlaneFitAccumulator acc;
+  for (const auto& p : points)
+    acc.add(p);
+  return acc.fit(config);
+}
+
+PlaneFitter::PlaneFitter(const PlaneFitConfig& config) : config_(config) {
+  const std::string err = config_.validate();
+  if (!err.empty()) throw std::invalid_argument("PlaneFitConfig: " + err);
+}
+
+GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments& segments,
+                                    int k) const {
+  if (k < 0 || k >= segments.numSegments()) return GroundPlane();
+  // 000 Sec. V-B: the points of the segment's voxels, i.e. of voxel (u, v, w_k) of each column.
+  const int w = segments.segment_height[k];
+  PlaneFitAccumulator acc;
+  for (const int* c = segments.cellsBegin(k); c != segments.cellsEnd(k); ++c) {
+    const VoxelPointList list = grid.points(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w});
+    for (const VoxelPoint& p : list)
+      acc.add(p.position);
+  }
+  return acc.fit(config_);
+}
+
+void PlaneFitter::fitAll(const VoxelGrid& grid, const GroundSegments& segments,
+                         std::vector<GroundPlane>* planes) const {
+  if (planes == nullptr) return;
+  planes->resize(segments.numSegments());
+  for (int k = 0; k < segments.numSegments(); ++k)
+    (*planes)[k] = fitSegment(grid, segments, k);
+}
+
+}  // namespace stereo_safety_map

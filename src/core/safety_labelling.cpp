@@ -1,0 +1,303 @@
+#include "stereo_safety_map/core/safety_labelling.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace stereo_safety_map {
+
+namespace {
+
+// Internal segment states of Alg. 2 before step 28 turns Safe into Level / Inclined.
+enum SegState : std::uint8_t { kStUnexamined, kStUnknown, kStNonGround, kStSafe };
+
+constexpr int kDu[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+
+std::int16_t toInt16Height(std::int32_t w) {
+  if (w == HeightMap::kNoHeight) return SafetyMap::kNoHeight;
+  return static_cast<std::int16_t>(std::clamp<std::int32_t>(w, -32767, 32767));
+}
+
+}  // namespace
+
+std::string SafetyLabellingConfig::validate() const {
+  if (!std::isfinite(max_slope_deg) || max_slope_deg <= 0.0 || max_slope_deg >= 90.0) {
+    return "max_slope_deg (theta_max) must be in (0, 90) deg";
+  }
+  if (min_segment_cells < 0 || min_segment_cells > 1000000) {
+    return "min_segment_cells (n_small) must be in [0, 1000000]";
+  }
+  if (!std::isfinite(thin_ratio) || thin_ratio < 0.0 || thin_ratio > 1000.0) {
+    return "thin_ratio (r_thin) must be in [0, 1000]";
+  }
+  if (!std::isfinite(max_step_height) || max_step_height <= 0.0 || max_step_height > 10.0) {
+    return "max_step_height (h_T) must be in (0, 10] m";
+  }
+  if (min_passage_cells < 1 || min_passage_cells > 100000) {
+    return "min_passage_cells (num_T) must be in [1, 100000]";
+  }
+  if (!std::isfinite(level_slope_deg) || level_slope_deg < 0.0 || level_slope_deg > max_slope_deg) {
+    return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
+  }
+  if (!std::isfinite(drop_off_radius) || drop_off_radius < 0.0 || drop_off_radius > 10.0) {
+    return "drop_off_radius must be in [0, 10] m";
+  }
+  if (!std::isfinite(drop_off_min_drop) || drop_off_min_drop < 0.0 || drop_off_min_drop > 10.0) {
+    return "drop_off_min_drop must be in [0, 10] m";
+  }
+  return "";
+}
+
+SafetyLabelling::SafetyLabelling(const SafetyLabellingConfig& config) : config_(config) {
+  const std::string err = config_.validate();
+  if (!err.empty()) throw std::invalid_argument("SafetyLabellingConfig: " + err);
+}
+
+int SafetyLabelling::okCount(int s, int r) const {
+  const auto first = edges_.begin() + edge_begin_[s];
+  const auto last = edges_.begin() + edge_begin_[s + 1];
+  const auto it =
+      std::lower_bound(first, last, r, [](const Edge& e, int key) { return e.r < key; });
+  return (it != last && it->r == r) ? it->ok : 0;
+}
+
+bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
+                            const std::vector<GroundPlane>& planes, double voxel_size,
+                            SafetyMap* map) {
+  if (map == nullptr) return false;
+  SafetyMap& m = *map;
+  const int n = hm.numCells();
+  const int width = hm.width();
+  m.min_u = hm.minU();
+  m.min_v = hm.minV();
+  m.width = width;
+  m.height = hm.height();
+  m.resolution = voxel_size;
+  m.robot_u = segs.robot.u;
+  m.robot_v = segs.robot.v;
+  m.robot_segment = -1;
+  m.labels.assign(n, SafetyLabel::kUnknown);
+  m.segment.assign(n, -1);
+  m.drop_off.assign(n, 0);
+  m.column_height.resize(n);
+  for (int c = 0; c < n; ++c)
+    m.column_height[c] = toInt16Height(hm.atIndex(c));
+
+  const int nseg = segs.numSegments();
+  const bool consistent =
+      std::isfinite(voxel_size) && voxel_size > 0.0 && segs.width == width &&
+      segs.height == hm.height() && segs.min_u == hm.minU() && segs.min_v == hm.minV() &&
+      static_cast<int>(segs.segment_of.size()) == n &&
+      static_cast<int>(segs.examined.size()) == n &&
+      static_cast<int>(segs.segment_begin.size()) == nseg + 1 && segs.segment_begin.front() == 0 &&
+      segs.segment_begin.back() == static_cast<int>(segs.segment_cells.size()) &&
+      std::is_sorted(segs.segment_begin.begin(), segs.segment_begin.end()) &&
+      segs.robot_segment < nseg &&
+      std::all_of(segs.segment_cells.begin(), segs.segment_cells.end(),
+                  [n](int c) { return c >= 0 && c < n; });
+  if (!consistent) {
+    m.segments.clear();
+    return false;
+  }
+  m.robot_segment = segs.robot_segment;
+  const double l = voxel_size;
+  auto planeOf = [&](int k) -> const GroundPlane* {
+    return (k < static_cast<int>(planes.size()) && planes[k].valid) ? &planes[k] : nullptr;
+  };
+
+  // Interior and boundary cells (000, Sec. VI): interior cells have all 8 neighbours in their
+  // own segment; cells on the map's edge have fewer than 8 and are boundary cells.
+  m.segments.resize(nseg);
+  boundary_.assign(n, 0);
+  contacts_.clear();
+  for (int k = 0; k < nseg; ++k) {
+    SegmentInfo& info = m.segments[k];
+    info.id = k;
+    info.indexed_height = segs.segment_height[k];
+    info.cells.assign(segs.cellsBegin(k), segs.cellsEnd(k));
+    info.num_interior = 0;
+    info.num_boundary = 0;
+    info.plane = k < static_cast<int>(planes.size()) ? planes[k] : GroundPlane();
+    info.reachable = false;
+    const GroundPlane* ps = planeOf(k);
+    for (const int c : info.cells) {
+      const int u = c % width, v = c / width;
+      int nb_seg[8];
+      int num_nb_seg = 0;
+      bool interior = true;
+      for (int j = 0; j < 8; ++j) {
+        const int un = u + kDu[j], vn = v + kDv[j];
+        if (un < 0 || vn < 0 || un >= width || vn >= m.height) {
+          interior = false;
+          continue;
+        }
+        const int r = segs.segment_of[vn * width + un];
+        if (r == k) continue;
+        interior = false;
+        if (r < 0) continue;
+        if (std::find(nb_seg, nb_seg + num_nb_seg, r) == nb_seg + num_nb_seg) {
+          nb_seg[num_nb_seg++] = r;
+        }
+      }
+      if (interior) {
+        ++info.num_interior;
+        continue;
+      }
+      ++info.num_boundary;
+      boundary_[c] = 1;
+      // Alg. 2 steps 14-19 for this cell against every neighbouring segment.
+      const double xc = (m.min_u + u) * l, yc = (m.min_v + v) * l;
+      for (int j = 0; j < num_nb_seg; ++j) {
+        const GroundPlane* pr = planeOf(nb_seg[j]);
+        int ok = 0;
+        if (ps != nullptr && pr != nullptr) {
+          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height;
+        }
+        contacts_.push_back(Contact{k, nb_seg[j], ok});
+      }
+    }
+  }
+
+  // Segment neighbourhood (000, Sec. VI): segments whose boundary cells are neighbours. Each
+  // side of a border keeps its own count of crossable cells.
+  std::sort(contacts_.begin(), contacts_.end(),
+            [](const Contact& a, const Contact& b) { return a.s != b.s ? a.s < b.s : a.r < b.r; });
+  edges_.clear();
+  edge_begin_.assign(nseg + 1, 0);
+  for (std::size_t i = 0; i < contacts_.size();) {
+    std::size_t j = i;
+    int ok = 0;
+    while (j < contacts_.size() && contacts_[j].s == contacts_[i].s &&
+           contacts_[j].r == contacts_[i].r) {
+      ok += contacts_[j].ok;
+      ++j;
+    }
+    edges_.push_back(Edge{contacts_[i].r, ok});
+    ++edge_begin_[contacts_[i].s + 1];
+    i = j;
+  }
+  for (int k = 0; k < nseg; ++k)
+    edge_begin_[k + 1] += edge_begin_[k];
+
+  // Alg. 2 steps 1-4.
+  seg_state_.assign(nseg, kStUnexamined);
+  for (int k = 0; k < nseg; ++k) {
+    const SegmentInfo& info = m.segments[k];
+    const GroundPlane* p = planeOf(k);
+    if (p == nullptr) {
+      seg_state_[k] = kStUnknown;  // no plane, nothing to judge the segment by
+      continue;
+    }
+    if (p->slope_deg > config_.max_slope_deg) seg_state_[k] = kStNonGround;  // step 2
+    if (static_cast<int>(info.cells.size()) < config_.min_segment_cells) {   // step 3
+      seg_state_[k] = kStUnknown;
+    }
+    if (info.num_interior < config_.thin_ratio * info.num_boundary) {  // step 4
+      seg_state_[k] = kStUnknown;
+    }
+  }
+
+  // Steps 5-26: grow the safe set from the robot's segment. The paper assumes the robot's segment
+  // is safe, so step 6 overrides steps 2-4 for it; without a valid plane there is nothing to
+  // compare its neighbours with and nothing is reachable.
+  neighbours_examined_.assign(nseg, 0);
+  to_examine_.clear();
+  const int rs = segs.robot_segment;
+  if (rs >= 0 && planeOf(rs) != nullptr) {
+    seg_state_[rs] = kStSafe;
+    to_examine_.push_back(rs);
+  }
+  std::size_t head = 0;
+  while (head < to_examine_.size()) {
+    const int s = to_examine_[head++];
+    if (neighbours_examined_[s]) continue;
+    for (int e = edge_begin_[s]; e < edge_begin_[s + 1]; ++e) {
+      const int r = edges_[e].r;
+      // num_RS: num_T is the robot's width in cells (Sec. VI), so the crossable cells are
+      // counted on each side of the border and the smaller count is the passage width (the
+      // union of both sides would count every position of the border twice).
+      const int num_rs = std::min(edges_[e].ok, okCount(r, s));
+      if (num_rs >= config_.min_passage_cells && seg_state_[r] == kStUnexamined) {
+        seg_state_[r] = kStSafe;  // step 22
+        to_examine_.push_back(r);
+      }
+    }
+    neighbours_examined_[s] = 1;
+  }
+
+  // Steps 27-28.
+  for (int k = 0; k < nseg; ++k) {
+    SegmentInfo& info = m.segments[k];
+    switch (seg_state_[k]) {
+      case kStUnexamined:
+      case kStNonGround:
+        info.label = SafetyLabel::kNonGround;
+        break;
+      case kStUnknown:
+        info.label = SafetyLabel::kUnknown;
+        break;
+      case kStSafe:
+        info.reachable = true;
+        info.label = info.plane.slope_deg > config_.level_slope_deg ? SafetyLabel::kInclined
+                                                                    : SafetyLabel::kLevel;
+        break;
+    }
+  }
+
+  // The cell map (000, Sec. VI).
+  for (int c = 0; c < n; ++c) {
+    const int k = segs.segment_of[c];
+    if (k >= 0 && k < nseg) {
+      m.labels[c] = m.segments[k].label;
+      m.segment[c] = k;
+    } else if (!segs.examined[c]) {
+      m.labels[c] = SafetyLabel::kUnexamined;
+    } else if (hm.atIndex(c) != HeightMap::kNoHeight) {
+      m.labels[c] = SafetyLabel::kNonGround;  // non-traversable column
+    }
+  }
+
+  if (!config_.mark_drop_offs) return true;
+  // Potential drop-off edges (000, Sec. VI), see SafetyLabellingConfig.
+  const double rr = config_.drop_off_radius / l;
+  const long long r2 = static_cast<long long>(std::floor(rr * rr + 1e-6));
+  const int rc = static_cast<int>(std::floor(std::sqrt(static_cast<double>(r2))));
+  for (int k = 0; k < nseg; ++k) {
+    const SegmentInfo& info = m.segments[k];
+    if (!isSafe(info.label)) continue;
+    for (const int c : info.cells) {
+      if (!boundary_[c]) continue;
+      const int u = c % width, v = c / width;
+      bool next_to_unknown = false;
+      for (int j = 0; j < 8 && !next_to_unknown; ++j) {
+        const int un = u + kDu[j], vn = v + kDv[j];
+        if (un < 0 || vn < 0 || un >= width || vn >= m.height) continue;
+        next_to_unknown = m.labels[vn * width + un] == SafetyLabel::kUnknown;
+      }
+      if (!next_to_unknown) continue;
+      const double h = info.plane.heightAt((m.min_u + u) * l, (m.min_v + v) * l);
+      // Highest indexed height that is lower than h by more than the minimum drop.
+      const double w_lower = std::ceil((h - config_.drop_off_min_drop) / l) - 1.0;
+      bool lower = false;
+      for (int dv = -rc; dv <= rc && !lower; ++dv) {
+        const int vn = v + dv;
+        if (vn < 0 || vn >= m.height) continue;
+        for (int du = -rc; du <= rc; ++du) {
+          const int un = u + du;
+          if (un < 0 || un >= width || static_cast<long long>(du) * du + dv * dv > r2) continue;
+          const std::int32_t w = hm.atIndex(vn * width + un);
+          if (w != HeightMap::kNoHeight && w <= w_lower) {
+            lower = true;
+            break;
+          }
+        }
+      }
+      if (lower) m.drop_off[c] = 1;
+    }
+  }
+  return true;
+}
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,480 @@
+// Disparity pipeline on synthetic rectified pairs rendered here: fronto-parallel random-dot
+// surfaces at known integer disparities, so the true disparity of every pixel is known.
+#include "stereo_safety_map/core/disparity_pipeline.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr int kRows = 240;
+constexpr int kCols = 320;
+constexpr int kTextureCols = kCols + 80;  // textures are indexed by left-image column
+
+/// Fronto-parallel textured rectangle; `rect` is in left-image pixels.
+struct Layer {
+  cv::Rect rect;
+  int disparity;
+  cv::Mat texture;  ///< kRows x kTextureCols, CV_8UC1
+};
+
+cv::Mat randomDots(std::uint64_t seed) {
+  cv::Mat t(kRows, kTextureCols, CV_8UC1);
+  cv::RNG rng(seed);
+  rng.fill(t, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(t, t, cv::Size(), 1.0);
+  return t;
+}
+
+/// Renders the pair with occlusions: each camera sees the nearest (largest disparity) layer.
+/// The surface point at left column x appears at right column x - disparity.
+struct Scene {
+  cv::Mat left, right, truth;  ///< truth: CV_32FC1 disparity of the left image
+};
+
+Scene render(const std::vector<Layer>& layers) {
+  Scene s;
+  s.left.create(kRows, kCols, CV_8UC1);
+  s.right.create(kRows, kCols, CV_8UC1);
+  s.truth.create(kRows, kCols, CV_32FC1);
+  for (int y = 0; y < kRows; ++y) {
+    for (int x = 0; x < kCols; ++x) {
+      const Layer* in_left = nullptr;
+      const Layer* in_right = nullptr;
+      for (const Layer& l : layers) {
+        if (y < l.rect.y || y >= l.rect.y + l.rect.height) continue;
+        const int xs = x + l.disparity;  // surface column seen by right pixel x
+        if (x >= l.rect.x && x < l.rect.x + l.rect.width &&
+            (in_left == nullptr || l.disparity > in_left->disparity)) {
+          in_left = &l;
+        }
+        if (xs >= l.rect.x && xs < l.rect.x + l.rect.width &&
+            (in_right == nullptr || l.disparity > in_right->disparity)) {
+          in_right = &l;
+        }
+      }
+      s.left.at<uchar>(y, x) = in_left ? in_left->texture.at<uchar>(y, x) : 0;
+      s.truth.at<float>(y, x) = in_left ? static_cast<float>(in_left->disparity) : 0.0f;
+      s.right.at<uchar>(y, x) =
+          in_right ? in_right->texture.at<uchar>(y, x + in_right->disparity) : 0;
+    }
+  }
+  return s;
+}
+
+Layer background(int disparity, std::uint64_t seed) {
+  return Layer{cv::Rect(0, 0, kTextureCols, kRows), disparity, randomDots(seed)};
+}
+
+struct RoiCounts {
+  int valid = 0;
+  int wrong = 0;  ///< valid but more than 1 px from the truth
+  int total = 0;
+};
+
+RoiCounts count(const cv::Mat& d, const cv::Mat& truth, cv::Rect roi) {
+  RoiCounts c;
+  for (int y = roi.y; y < roi.y + roi.height; ++y) {
+    for (int x = roi.x; x < roi.x + roi.width; ++x) {
+      const float v = d.at<float>(y, x);
+      ++c.total;
+      if (!isValidDisparity(v)) continue;
+      ++c.valid;
+      c.wrong += std::fabs(v - truth.at<float>(y, x)) > 1.0f;
+    }
+  }
+  return c;
+}
+
+int countReason(const cv::Mat& reasons, cv::Rect roi, DisparityRemoval reason) {
+  return cv::countNonZero(reasons(roi) == static_cast<int>(reason));
+}
+
+// Matching needs num_disparities + block_size / 2 columns on the left: this is where every
+// pixel can be matched.
+const cv::Rect kMatchable(64 + 8, 8, kCols - 64 - 16, kRows - 16);
+
+// ------------------------------------------------------------------------------------------------
+TEST(DisparityPipelineConfig, DefaultsAreValidAndBadValuesAreNamed) {
+  EXPECT_EQ(DisparityPipelineConfig().validate(), "");
+  auto expect_error = [](void (*mutate)(DisparityPipelineConfig*), const char* name) {
+    DisparityPipelineConfig c;
+    mutate(&c);
+    const std::string e = c.validate();
+    EXPECT_NE(e.find(name), std::string::npos) << "'" << e << "' should name " << name;
+  };
+  expect_error([](DisparityPipelineConfig* c) { c->num_disparities = 60; }, "num_disparities");
+  expect_error([](DisparityPipelineConfig* c) { c->num_disparities = 0; }, "num_disparities");
+  expect_error([](DisparityPipelineConfig* c) { c->block_size = 8; }, "block_size");
+  expect_error([](DisparityPipelineConfig* c) { c->block_size = 3; }, "block_size");  // BM >= 5
+  expect_error([](DisparityPipelineConfig* c) { c->min_disparity = -4; }, "min_disparity");
+  expect_error([](DisparityPipelineConfig* c) { c->pre_filter_cap = 64; }, "pre_filter_cap");
+  expect_error([](DisparityPipelineConfig* c) { c->speckle_window_size = -1; },
+               "speckle_window_size");
+  expect_error(
+      [](DisparityPipelineConfig* c) {
+        c->sgbm_p1 = 100;
+        c->sgbm_p2 = 50;
+      },
+      "sgbm_p2");
+  expect_error([](DisparityPipelineConfig* c) { c->uniqueness.uniqueness_ratio = -1; },
+               "uniqueness.uniqueness_ratio");
+  expect_error([](DisparityPipelineConfig* c) { c->uniqueness.max_normalized_cost = 0.1; },
+               "max_normalized_cost");
+  expect_error([](DisparityPipelineConfig* c) { c->texture.window_size = 2; },
+               "texture.window_size");
+  expect_error([](DisparityPipelineConfig* c) { c->left_right.max_difference = -1; },
+               "left_right.max_difference");
+  expect_error([](DisparityPipelineConfig* c) { c->neighbour_consistency.window_radius = 9; },
+               "neighbour_consistency.window_radius");
+  expect_error([](DisparityPipelineConfig* c) { c->spike_removal.min_region_size = 0; },
+               "spike_removal.min_region_size");
+
+  // SGBM accepts small blocks; a disabled filter's config is not checked.
+  DisparityPipelineConfig sgbm;
+  sgbm.matcher = StereoMatcherType::kSemiGlobal;
+  sgbm.block_size = 3;
+  EXPECT_EQ(sgbm.validate(), "");
+  DisparityPipelineConfig off;
+  off.enable_spike_removal = false;
+  off.spike_removal.min_region_size = 0;
+  EXPECT_EQ(off.validate(), "");
+}
+
+// ------------------------------------------------------------------------------------------------
+TEST(DisparityPipeline, TexturedPlaneIsRecoveredAtItsDisparity) {
+  const Scene scene = render({background(20, 1)});
+  for (const StereoMatcherType type :
+       {StereoMatcherType::kBlockMatching, StereoMatcherType::kSemiGlobal}) {
+    DisparityPipelineConfig config;
+    config.matcher = type;
+    DisparityPipeline pipeline(config);
+    cv::Mat disparity;
+    DisparityStats stats;
+    std::string error;
+    ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &disparity, &stats, &error)) << error;
+    ASSERT_EQ(disparity.type(), CV_32FC1);
+    ASSERT_EQ(disparity.size(), scene.left.size());
+
+    const RoiCounts c = count(disparity, scene.truth, kMatchable);
+    EXPECT_GE(c.valid, c.total * 99 / 100);
+    const RoiCounts all = count(disparity, scene.truth, cv::Rect(0, 0, kCols, kRows));
+    EXPECT_EQ(all.wrong, 0);
+    double sum = 0.0;
+    for (int y = kMatchable.y; y < kMatchable.br().y; ++y) {
+      for (int x = kMatchable.x; x < kMatchable.br().x; ++x)
+        sum += disparity.at<float>(y, x);
+    }
+    EXPECT_NEAR(sum / kMatchable.area(), 20.0, 0.1);
+    // Convention: every invalid pixel is exactly 0.
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kCols; ++x) {
+        const float v = disparity.at<float>(y, x);
+        ASSERT_TRUE(v == kInvalidDisparity || isValidDisparity(v));
+      }
+    }
+
+    // Stats: every step ran and chains into the next; the output count is the last count.
+    EXPECT_EQ(stats.pixels, kRows * kCols);
+    EXPECT_EQ(stats.valid, countValidDisparities(disparity));
+    const DisparityStep chain[] = {DisparityStep::kMatching, DisparityStep::kTexture,
+                                   DisparityStep::kLeftRight, DisparityStep::kNeighbourConsistency,
+                                   DisparityStep::kSpikeRemoval};
+    int previous = stats.pixels;
+    for (const DisparityStep s : chain) {
+      const DisparityStepStats& step = stats.step(s);
+      EXPECT_TRUE(step.ran) << disparityStepName(s);
+      EXPECT_EQ(step.valid_before, previous) << disparityStepName(s);
+      EXPECT_LE(step.valid_after, step.valid_before) << disparityStepName(s);
+      EXPECT_GE(step.ms, 0.0);
+      previous = step.valid_after;
+    }
+    EXPECT_EQ(previous, stats.valid);
+    EXPECT_TRUE(stats.step(DisparityStep::kRightMatching).ran);
+    EXPECT_FALSE(stats.step(DisparityStep::kUniqueness).ran);  // measured in debug mode only
+    EXPECT_GT(stats.total_ms, 0.0);
+  }
+}
+
+TEST(DisparityPipeline, RightDisparityCoversTheRightImageBorder) {
+  // The mirrored pair is padded so that right pixels near the right border, whose matches lie
+  // inside the left image, get a right-to-left disparity (without padding they get none).
+  const Scene scene = render({background(10, 2)});
+  DisparityPipeline pipeline;
+  cv::Mat disparity;
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &disparity, nullptr, nullptr));
+  const cv::Mat& right = pipeline.rightDisparity();
+  ASSERT_EQ(right.size(), scene.left.size());
+  const cv::Rect border(kCols - 40, 8, 25, kRows - 16);  // matches at columns < kCols - 5
+  int valid = 0, wrong = 0;
+  for (int y = border.y; y < border.br().y; ++y) {
+    for (int x = border.x; x < border.br().x; ++x) {
+      const float v = right.at<float>(y, x);
+      valid += isValidDisparity(v);
+      wrong += isValidDisparity(v) && std::fabs(v - 10.0f) > 1.0f;
+    }
+  }
+  EXPECT_GE(valid, border.area() * 8 / 10);
+  EXPECT_EQ(wrong, 0);
+}
+
+TEST(DisparityPipeline, TexturelessRegionIsRemovedByTextureValidation) {
+  cv::Mat texture = randomDots(3);
+  texture(cv::Rect(120, 60, 100, 100)).setTo(128);  // same surface patch in both views
+  const Scene scene = render({Layer{cv::Rect(0, 0, kTextureCols, kRows), 20, texture}});
+  const cv::Rect flat(130, 70, 80, 80);  // core of the flat patch, away from texture
+
+  // Only the texture test on: the matcher alone returns a disparity everywhere.
+  DisparityPipelineConfig config;
+  config.enable_uniqueness = false;
+  config.enable_left_right = false;
+  config.enable_neighbour_consistency = false;
+  config.enable_spike_removal = false;
+  config.enable_texture = false;
+  DisparityPipeline raw(config);
+  cv::Mat disparity;
+  std::string error;
+  ASSERT_TRUE(raw.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  EXPECT_GT(count(disparity, scene.truth, flat).valid, flat.area() / 2);
+
+  config.enable_texture = true;
+  config.debug = true;
+  DisparityPipeline textured(config);
+  DisparityStats stats;
+  ASSERT_TRUE(textured.compute(scene.left, scene.right, &disparity, &stats, &error)) << error;
+  EXPECT_EQ(count(disparity, scene.truth, flat).valid, 0);
+  EXPECT_EQ(countReason(textured.removalReasons(), flat, DisparityRemoval::kTexture), flat.area());
+  EXPECT_GT(stats.step(DisparityStep::kTexture).valid_before,
+            stats.step(DisparityStep::kTexture).valid_after);
+  const cv::Rect textured_part(kMatchable.x, kMatchable.y, 40, kMatchable.height);
+  EXPECT_GE(count(disparity, scene.truth, textured_part).valid, textured_part.area() * 99 / 100);
+
+  // With every filter on the region is gone as well (here mostly by the uniqueness test).
+  DisparityPipeline full;
+  ASSERT_TRUE(full.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  EXPECT_EQ(count(disparity, scene.truth, flat).valid, 0);
+}
+
+TEST(DisparityPipeline, GhostPatchIsRemovedBySpikeRemoval) {
+  // A small textured patch floating 30 disparities in front of the background, cut off from
+  // every surrounding surface: the kind of coherent error 002 Sec. 4.2 removes.
+  const cv::Rect ghost(200, 100, 14, 14);
+  const Scene scene = render({background(10, 4), Layer{ghost, 40, randomDots(5)}});
+  const cv::Rect core(202, 102, 10, 10);
+
+  DisparityPipelineConfig config;
+  config.debug = true;
+  config.enable_spike_removal = false;
+  DisparityPipeline without(config);
+  cv::Mat disparity;
+  std::string error;
+  ASSERT_TRUE(without.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  const RoiCounts kept = count(disparity, scene.truth, core);
+  EXPECT_GE(kept.valid, core.area() * 9 / 10);  // the matcher and other filters keep it
+  EXPECT_EQ(kept.wrong, 0);
+
+  config.enable_spike_removal = true;
+  DisparityPipeline with(config);
+  DisparityStats stats;
+  ASSERT_TRUE(with.compute(scene.left, scene.right, &disparity, &stats, &error)) << error;
+  EXPECT_EQ(count(disparity, scene.truth, core).valid, 0);
+  EXPECT_EQ(countReason(with.removalReasons(), core, DisparityRemoval::kSpike), kept.valid);
+  EXPECT_GE(count(disparity, scene.truth, kMatchable).valid, kMatchable.area() * 9 / 10);
+  EXPECT_LT(stats.step(DisparityStep::kSpikeRemoval).valid_after,
+            stats.step(DisparityStep::kSpikeRemoval).valid_before);
+}
+
+TEST(DisparityPipeline, OccludedRegionIsRemovedByLeftRightCheck) {
+  // Box at disparity 34 over a background at 10: the 24 background columns left of the box are
+  // hidden from the right camera, and the matcher returns wrong disparities there.
+  const cv::Rect box(150, 60, 80, 120);
+  const Scene scene = render({background(10, 6), Layer{box, 34, randomDots(7)}});
+  const cv::Rect occluded(128, 70, 19, 100);  // inside the 24-column band, away from its edges
+
+  DisparityPipelineConfig config;
+  config.debug = true;
+  config.enable_uniqueness = false;  // which would catch many of them first
+  config.enable_neighbour_consistency = false;
+  config.enable_spike_removal = false;
+  config.enable_left_right = false;
+  DisparityPipeline without(config);
+  cv::Mat disparity;
+  std::string error;
+  ASSERT_TRUE(without.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  const RoiCounts before = count(disparity, scene.truth, occluded);
+  EXPECT_GE(before.wrong, occluded.area() * 8 / 10);
+  const int wrong_before = count(disparity, scene.truth, cv::Rect(0, 0, kCols, kRows)).wrong;
+
+  config.enable_left_right = true;
+  DisparityPipeline with(config);
+  ASSERT_TRUE(with.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  const RoiCounts after = count(disparity, scene.truth, occluded);
+  EXPECT_LE(after.valid, occluded.area() / 50);
+  EXPECT_GE(countReason(with.removalReasons(), occluded, DisparityRemoval::kLeftRight),
+            before.valid - after.valid);
+  const int wrong_after = count(disparity, scene.truth, cv::Rect(0, 0, kCols, kRows)).wrong;
+  EXPECT_LT(wrong_after, wrong_before / 5);
+  // Visible surfaces stay.
+  EXPECT_GE(count(disparity, scene.truth, cv::Rect(160, 70, 60, 100)).valid, 60 * 100 * 95 / 100);
+  EXPECT_GE(count(disparity, scene.truth, cv::Rect(240, 70, 60, 100)).valid, 60 * 100 * 95 / 100);
+
+  // The default pipeline leaves nothing wrong in the band either.
+  DisparityPipeline full;
+  ASSERT_TRUE(full.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  EXPECT_LE(count(disparity, scene.truth, occluded).wrong, occluded.area() / 50);
+}
+
+// ------------------------------------------------------------------------------------------------
+TEST(DisparityPipeline, ColourInputGivesTheSameResultAsGrey) {
+  const Scene scene = render({background(16, 8)});
+  DisparityPipeline pipeline;
+  cv::Mat grey_result, bgr_result, bgra_result;
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &grey_result, nullptr, nullptr));
+  cv::Mat left_bgr, right_bgr, left_bgra, right_bgra;
+  cv::cvtColor(scene.left, left_bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(scene.right, right_bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(scene.left, left_bgra, cv::COLOR_GRAY2BGRA);
+  cv::cvtColor(scene.right, right_bgra, cv::COLOR_GRAY2BGRA);
+  std::string error;
+  ASSERT_TRUE(pipeline.compute(left_bgr, right_bgr, &bgr_result, nullptr, &error)) << error;
+  ASSERT_TRUE(pipeline.compute(left_bgra, right_bgra, &bgra_result, nullptr, &error)) << error;
+  EXPECT_EQ(cv::norm(grey_result, bgr_result, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(grey_result, bgra_result, cv::NORM_INF), 0.0);
+  // Mixed types are fine too: each image is converted on its own.
+  ASSERT_TRUE(pipeline.compute(left_bgr, scene.right, &bgr_result, nullptr, &error)) << error;
+  EXPECT_EQ(cv::norm(grey_result, bgr_result, cv::NORM_INF), 0.0);
+}
+
+TEST(DisparityPipeline, BadInputIsRejectedWithAMessage) {
+  const Scene scene = render({background(16, 9)});
+  DisparityPipeline pipeline;
+  cv::Mat disparity;
+  std::string error;
+  auto rejects = [&](const cv::Mat& l, const cv::Mat& r, const char* expected) {
+    SCOPED_TRACE(expected);
+    error.clear();
+    EXPECT_FALSE(pipeline.compute(l, r, &disparity, nullptr, &error));
+    EXPECT_NE(error.find(expected), std::string::npos) << "'" << error << "'";
+  };
+  rejects(cv::Mat(), scene.right, "empty");
+  rejects(scene.left, cv::Mat(), "empty");
+  rejects(scene.left, scene.right(cv::Rect(0, 0, kCols - 1, kRows)), "size");
+  rejects(scene.left, scene.right.rowRange(0, kRows / 2), "size");
+  rejects(cv::Mat(kRows, kCols, CV_16UC1, cv::Scalar(5)), scene.right, "unsupported type");
+  rejects(scene.left, cv::Mat(kRows, kCols, CV_32FC1, cv::Scalar(5)), "unsupported type");
+  rejects(cv::Mat(kRows, kCols, CV_8UC2), cv::Mat(kRows, kCols, CV_8UC2), "unsupported type");
+  // Narrower than min_disparity + num_disparities + block_size = 73.
+  rejects(scene.left(cv::Rect(0, 0, 73, 40)), scene.right(cv::Rect(0, 0, 73, 40)), "too small");
+  rejects(scene.left(cv::Rect(0, 0, 200, 9)), scene.right(cv::Rect(0, 0, 200, 9)), "too small");
+  const int dims[3] = {4, 4, 4};
+  rejects(cv::Mat(3, dims, CV_8UC1), cv::Mat(3, dims, CV_8UC1), "two-dimensional");
+
+  EXPECT_FALSE(pipeline.compute(scene.left, scene.right, nullptr, nullptr, &error));
+  EXPECT_NE(error.find("null"), std::string::npos);
+  EXPECT_FALSE(pipeline.compute(scene.left, scene.right, nullptr, nullptr, nullptr));
+  cv::Mat alias = scene.left.clone();
+  EXPECT_FALSE(pipeline.compute(alias, scene.right, &alias, nullptr, &error));
+  EXPECT_EQ(alias.type(), CV_8UC1);
+
+  DisparityPipelineConfig bad;
+  bad.num_disparities = 50;
+  pipeline.setConfig(bad);
+  rejects(scene.left, scene.right, "num_disparities");
+
+  // Still usable after all that.
+  pipeline.setConfig(DisparityPipelineConfig());
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  EXPECT_GT(countValidDisparities(disparity), kMatchable.area() * 9 / 10);
+}
+
+TEST(DisparityPipeline, MatchersAndBuffersAreReusedUntilTheMatcherConfigChanges) {
+  const Scene scene = render({background(12, 10)});
+  DisparityPipeline pipeline;
+  cv::Mat first, second;
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &first, nullptr, nullptr));
+  const uchar* data = first.data;
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &first, nullptr, nullptr));
+  EXPECT_EQ(first.data, data);  // output buffer reused
+  EXPECT_EQ(pipeline.matcherBuilds(), 1);
+
+  DisparityPipelineConfig config;
+  config.spike_removal.min_region_size = 50;  // a filter setting: no rebuild
+  pipeline.setConfig(config);
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &second, nullptr, nullptr));
+  EXPECT_EQ(pipeline.matcherBuilds(), 1);
+  EXPECT_EQ(cv::norm(first, second, cv::NORM_INF), 0.0);
+
+  config.num_disparities = 48;  // a matcher setting: rebuilt, still correct
+  pipeline.setConfig(config);
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &second, nullptr, nullptr));
+  EXPECT_EQ(pipeline.matcherBuilds(), 2);
+  const cv::Rect matchable(48 + 8, 8, kCols - 48 - 16, kRows - 16);
+  const RoiCounts c = count(second, scene.truth, matchable);
+  EXPECT_GE(c.valid, c.total * 99 / 100);
+  EXPECT_EQ(c.wrong, 0);
+
+  config.enable_uniqueness = false;  // changes the matcher's uniqueness ratio
+  pipeline.setConfig(config);
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &second, nullptr, nullptr));
+  EXPECT_EQ(pipeline.matcherBuilds(), 3);
+}
+
+TEST(DisparityPipeline, DebugImageColoursEachRemovalReason) {
+  const cv::Rect box(150, 60, 80, 120);
+  const Scene scene = render({background(10, 11), Layer{box, 34, randomDots(12)}});
+  DisparityPipelineConfig config;
+  DisparityPipeline plain(config);
+  cv::Mat disparity;
+  ASSERT_TRUE(plain.compute(scene.left, scene.right, &disparity, nullptr, nullptr));
+  EXPECT_TRUE(plain.debugImage().empty());
+  EXPECT_TRUE(plain.removalReasons().empty());
+
+  config.debug = true;
+  DisparityPipeline debug(config);
+  cv::Mat debug_disparity;
+  DisparityStats stats;
+  ASSERT_TRUE(debug.compute(scene.left, scene.right, &debug_disparity, &stats, nullptr));
+  EXPECT_EQ(cv::norm(disparity, debug_disparity, cv::NORM_INF), 0.0);  // same output
+  EXPECT_TRUE(stats.step(DisparityStep::kUniqueness).ran);
+  EXPECT_EQ(stats.step(DisparityStep::kUniqueness).valid_after,
+            stats.step(DisparityStep::kMatching).valid_after);
+
+  const cv::Mat& reasons = debug.removalReasons();
+  const cv::Mat& image = debug.debugImage();
+  ASSERT_EQ(reasons.type(), CV_8UC1);
+  ASSERT_EQ(image.type(), CV_8UC3);
+  ASSERT_EQ(image.size(), scene.left.size());
+  int removed_by_filters = 0;
+  for (int y = 0; y < kRows; ++y) {
+    for (int x = 0; x < kCols; ++x) {
+      const auto reason = static_cast<DisparityRemoval>(reasons.at<uchar>(y, x));
+      ASSERT_EQ(reason == DisparityRemoval::kValid,
+                isValidDisparity(debug_disparity.at<float>(y, x)));
+      const cv::Vec3b colour = image.at<cv::Vec3b>(y, x);
+      if (reason == DisparityRemoval::kValid) {
+        ASSERT_TRUE(colour[0] == colour[1] && colour[1] == colour[2] && colour[0] >= 64);
+      } else {
+        ASSERT_EQ(colour, disparityRemovalColour(reason));
+        removed_by_filters += reason != DisparityRemoval::kMatcher;
+      }
+    }
+  }
+  EXPECT_GT(removed_by_filters, 0);
+  // The matcher's unmatched left border is black.
+  EXPECT_EQ(image.at<cv::Vec3b>(kRows / 2, 10), cv::Vec3b(0, 0, 0));
+  // The colours are distinct.
+  for (int a = 0; a < 7; ++a) {
+    for (int b = a + 1; b < 7; ++b) {
+      EXPECT_NE(disparityRemovalColour(static_cast<DisparityRemoval>(a)),
+                disparityRemovalColour(static_cast<DisparityRemoval>(b)));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

@@ -1,0 +1,363 @@
+// Ground segmentation, Alg. 1 (000, Sec. V-A), on hand-made height maps.
+#include "stereo_safety_map/core/ground_segmentation.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr double kLv = 0.1;
+
+// Height map from text: row i is v = i, column j is u = j; '.' no height, '0'-'9' heights 0..9,
+// 'a'-'i' heights -1..-9.
+HeightMap fromText(const std::vector<std::string>& rows) {
+  HeightMap hm;
+  hm.reset(0, 0, static_cast<int>(rows[0].size()), static_cast<int>(rows.size()));
+  for (int v = 0; v < static_cast<int>(rows.size()); ++v) {
+    for (int u = 0; u < static_cast<int>(rows[v].size()); ++u) {
+      const char ch = rows[v][u];
+      if (ch >= '0' && ch <= '9') hm.set(u, v, ch - '0');
+      if (ch >= 'a' && ch <= 'i') hm.set(u, v, -(ch - 'a' + 1));
+    }
+  }
+  return hm;
+}
+
+HeightMap flat(int min_u, int min_v, int w, int h, int height) {
+  HeightMap hm;
+  hm.reset(min_u, min_v, w, h);
+  for (int v = min_v; v < min_v + h; ++v)
+    for (int u = min_u; u < min_u + w; ++u)
+      hm.set(u, v, height);
+  return hm;
+}
+
+// Every segment's cells carry its id and its height; ids cover all segment cells once.
+void expectConsistent(const HeightMap& hm, const GroundSegments& s) {
+  ASSERT_EQ(static_cast<int>(s.segment_begin.size()), s.numSegments() + 1);
+  std::set<int> seen;
+  for (int k = 0; k < s.numSegments(); ++k) {
+    EXPECT_GT(s.segmentSize(k), 0);
+    for (const int* c = s.cellsBegin(k); c != s.cellsEnd(k); ++c) {
+      EXPECT_EQ(s.segment_of[*c], k);
+      EXPECT_EQ(hm.atIndex(*c), s.segment_height[k]);
+      EXPECT_TRUE(s.examined[*c]);
+      EXPECT_TRUE(seen.insert(*c).second);
+    }
+  }
+  int in_segments = 0;
+  for (int c = 0; c < s.numCells(); ++c)
+    in_segments += s.segment_of[c] >= 0;
+  EXPECT_EQ(in_segments, static_cast<int>(seen.size()));
+  for (int c : s.non_traversable) {
+    EXPECT_EQ(s.segment_of[c], -1);
+    EXPECT_TRUE(s.examined[c]);
+    EXPECT_NE(hm.atIndex(c), HeightMap::kNoHeight);
+  }
+}
+
+TEST(GroundSegmentationConfig, Validate) {
+  GroundSegmentationConfig c;
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_DOUBLE_EQ(c.planning_radius, 4.0);
+  EXPECT_EQ(c.height_tolerance, 1);
+  EXPECT_EQ(c.connectivity, 8);
+  c.connectivity = 6;
+  EXPECT_NE(c.validate().find("connectivity"), std::string::npos);
+  EXPECT_THROW(GroundSegmentation{c}, std::invalid_argument);
+  c = GroundSegmentationConfig();
+  c.planning_radius = -1.0;
+  EXPECT_NE(c.validate().find("planning_radius"), std::string::npos);
+  c = GroundSegmentationConfig();
+  c.height_tolerance = -1;
+  EXPECT_NE(c.validate().find("height_tolerance"), std::string::npos);
+  c = GroundSegmentationConfig();
+  c.seed_radius = std::numeric_limits<double>::infinity();
+  EXPECT_NE(c.validate().find("seed_radius"), std::string::npos);
+}
+
+TEST(GroundSegmentation, FlatFloorIsOneSegment) {
+  const HeightMap hm = flat(-10, -10, 21, 21, 0);
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.seed_cell, s.index(0, 0));
+  EXPECT_EQ(s.segmentSize(0), 21 * 21);
+  EXPECT_TRUE(s.non_traversable.empty());
+}
+
+TEST(GroundSegmentation, PlanningRadiusLimitsTheExaminedCells) {
+  const HeightMap hm = flat(-50, -50, 101, 101, 0);
+  GroundSegmentation seg;  // R_max = 4 m = 40 cells
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  int examined = 0, expected = 0;
+  for (int v = -50; v <= 50; ++v)
+    for (int u = -50; u <= 50; ++u) {
+      expected += u * u + v * v <= 1600;
+      examined += s.examined[s.index(u, v)];
+    }
+  EXPECT_EQ(examined, expected);
+  EXPECT_TRUE(s.examined[s.index(40, 0)]);
+  EXPECT_TRUE(s.examined[s.index(0, -40)]);
+  EXPECT_FALSE(s.examined[s.index(41, 0)]);
+  EXPECT_FALSE(s.examined[s.index(29, 29)]);  // 4.10 m
+  EXPECT_TRUE(s.examined[s.index(28, 28)]);   // 3.96 m
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), expected);
+  EXPECT_EQ(s.segment_of[s.index(50, 50)], -1);
+  EXPECT_TRUE(s.non_traversable.empty());  // unexamined cells are never non-traversable
+}
+
+TEST(GroundSegmentation, StepOfOneStartsANewSegmentAndLargerStepsAreNonTraversable) {
+  const HeightMap hm = fromText({
+      "0000111122",
+      "0000111122",
+      "0000111122",
+      "0000111122",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{1, 1, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  // 0 -> 1 -> 2: each step is w_T = 1, so the chain reaches all three heights.
+  ASSERT_EQ(s.numSegments(), 3);
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_EQ(s.segment_height[1], 1);
+  EXPECT_EQ(s.segment_height[2], 2);
+  EXPECT_EQ(s.segmentSize(0), 16);
+  EXPECT_EQ(s.segmentSize(1), 16);
+  EXPECT_EQ(s.segmentSize(2), 8);
+
+  const HeightMap jump = fromText({
+      "0000222200",
+      "0000222200",
+      "0000222200",
+  });
+  ASSERT_TRUE(seg.segment(jump, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(jump, s);
+  ASSERT_EQ(s.numSegments(), 1);  // a 2-voxel step is not crossed: the far floor is cut off
+  EXPECT_EQ(s.segmentSize(0), 12);
+  EXPECT_EQ(s.non_traversable.size(), 18u);  // the 2s and the floor behind them
+  EXPECT_EQ(s.segment_of[s.index(9, 0)], -1);
+}
+
+TEST(GroundSegmentation, ToleranceZeroKeepsOnlyTheRobotsHeight) {
+  const HeightMap hm = fromText({"0011", "0011"});
+  GroundSegmentationConfig c;
+  c.height_tolerance = 0;
+  GroundSegmentation seg(c);
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.non_traversable.size(), 4u);
+}
+
+TEST(GroundSegmentation, BoxIsNonTraversableAndFloorAroundItOneSegment) {
+  const HeightMap hm = fromText({
+      "00000000",
+      "00000000",
+      "00055000",
+      "00055000",
+      "00000000",
+      "00000000",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), 44);
+  std::set<int> nt(s.non_traversable.begin(), s.non_traversable.end());
+  EXPECT_EQ(nt, (std::set<int>{s.index(3, 2), s.index(4, 2), s.index(3, 3), s.index(4, 3)}));
+}
+
+TEST(GroundSegmentation, EnclosedFloorIsUnreachable) {
+  // Floor inside a wall of height 5 is the same height as the robot's floor but cannot be
+  // reached: it is in no segment.
+  const HeightMap hm = fromText({
+      "000000000",
+      "005555500",
+      "005000500",
+      "005000500",
+      "005555500",
+      "000000000",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segment_of[s.index(4, 2)], -1);
+  EXPECT_EQ(s.non_traversable.size(), 14u + 6u);
+}
+
+TEST(GroundSegmentation, UnobservedCellsSeparateSegments) {
+  const HeightMap hm = fromText({
+      "000..000",
+      "000..000",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), 6);
+  EXPECT_EQ(s.non_traversable.size(), 6u);
+}
+
+TEST(GroundSegmentation, ConnectivityFourVersusEight) {
+  // Two floors touching only diagonally, walled off otherwise.
+  const HeightMap hm = fromText({
+      "00055",
+      "00055",
+      "55500",
+      "55500",
+  });
+  GroundSegmentation eight;
+  GroundSegments s;
+  ASSERT_TRUE(eight.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), 10);
+  GroundSegmentationConfig c;
+  c.connectivity = 4;
+  GroundSegmentation four(c);
+  ASSERT_TRUE(four.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), 6);
+  EXPECT_EQ(s.segment_of[s.index(4, 3)], -1);
+}
+
+TEST(GroundSegmentation, EqualHeightsAlwaysShareASegment) {
+  // The 1s on both sides of the 0-corridor are one connected region: they must be one segment
+  // although they are first reached from different places.
+  const HeightMap hm = fromText({
+      "1111111",
+      "1000001",
+      "1111111",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{3, 1, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 2);
+  EXPECT_EQ(s.segmentSize(0), 5);
+  EXPECT_EQ(s.segmentSize(1), 16);
+}
+
+TEST(GroundSegmentation, SeedRuleWhenTheRobotsCellIsUnobserved) {
+  // Robot at (4, 3): its cell has no height. Nearest observed cell at the base height is
+  // (4, 5) (0.2 m, before (4, 0) at 0.3 m); (6, 3) is as near but one voxel higher, (2, 3) is as
+  // near but three voxels higher.
+  const HeightMap hm = fromText({
+      "0000000000",
+      "..........",
+      "..........",
+      "..3...1...",
+      "..........",
+      "0000000000",
+  });
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{4, 3, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.seed_cell, s.index(4, 5));
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_EQ(s.segmentSize(0), 10);
+
+  // Only a cell one voxel off the base height is near: it seeds.
+  const HeightMap hm2 = fromText({
+      "..........",
+      "...11.....",
+      "...11.....",
+  });
+  ASSERT_TRUE(seg.segment(hm2, VoxelIndex{1, 1, 0}, kLv, &s));
+  EXPECT_EQ(s.seed_cell, s.index(3, 1));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segment_height[0], 1);
+}
+
+TEST(GroundSegmentation, NoSeedWithinTheSeedRadiusMeansNoSegments) {
+  HeightMap hm = flat(-30, -30, 61, 61, 0);
+  for (int v = -12; v <= 12; ++v)
+    for (int u = -12; u <= 12; ++u)
+      hm.set(u, v, HeightMap::kNoHeight);  // 1.2 m blind area
+  GroundSegmentation seg;                  // seed radius 1 m
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+  EXPECT_EQ(s.robot_segment, -1);
+  EXPECT_EQ(s.seed_cell, -1);
+  int examined_with_height = 0;
+  for (int c = 0; c < s.numCells(); ++c)
+    examined_with_height += s.examined[c] && hm.atIndex(c) != HeightMap::kNoHeight;
+  EXPECT_EQ(static_cast<int>(s.non_traversable.size()), examined_with_height);
+
+  GroundSegmentationConfig c;
+  c.seed_radius = 1.5;
+  GroundSegmentation wide(c);
+  ASSERT_TRUE(wide.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_TRUE(s.non_traversable.empty());
+
+  // A seed at the right height but far off the robot's base height is rejected.
+  const HeightMap high = flat(-5, -5, 11, 11, 3);
+  ASSERT_TRUE(seg.segment(high, VoxelIndex{0, 0, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+  EXPECT_EQ(s.non_traversable.size(), 121u);
+}
+
+TEST(GroundSegmentation, RobotOutsideTheWindowAndBadInput) {
+  const HeightMap hm = flat(0, 0, 10, 10, 0);
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{1000, -1000, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+  for (auto e : s.examined)
+    EXPECT_EQ(e, 0);
+  EXPECT_TRUE(s.non_traversable.empty());
+
+  // Just outside: the seed radius reaches into the window.
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{-3, 5, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.seed_cell, s.index(0, 5));
+
+  // Extreme robot indices do not overflow.
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{1 << 30, -(1 << 30), 1 << 30}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+
+  EXPECT_FALSE(seg.segment(hm, VoxelIndex{0, 0, 0}, 0.0, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+  EXPECT_FALSE(seg.segment(hm, VoxelIndex{0, 0, 0}, std::nan(""), &s));
+  EXPECT_FALSE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, nullptr));
+
+  HeightMap empty;
+  ASSERT_TRUE(seg.segment(empty, VoxelIndex{0, 0, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 0);
+  EXPECT_EQ(s.numCells(), 0);
+}
+
+TEST(GroundSegmentation, BuffersAreReusedAcrossCalls) {
+  const HeightMap a = fromText({"0000", "0011", "0011"});
+  const HeightMap b = flat(0, 0, 4, 3, 0);
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(a, VoxelIndex{0, 0, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 2);
+  ASSERT_TRUE(seg.segment(b, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(b, s);
+  EXPECT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.segmentSize(0), 12);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

@@ -1,0 +1,144 @@
+// Height map of the voxel grid (000, Sec. V-A, Alg. 1 step 1).
+#include "stereo_safety_map/core/height_map.h"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+namespace stereo_safety_map {
+namespace {
+
+VoxelGridConfig smallGrid() {
+  VoxelGridConfig c;
+  c.size_x = 2.0;
+  c.size_y = 2.0;
+  c.size_z = 3.0;
+  c.z_below_robot = 1.0;
+  return c;
+}
+
+void occupy(VoxelGrid* g, int u, int v, int w) {
+  g->setLogOdds({u, v, w}, 200);
+}
+
+TEST(HeightMapConfig, Validate) {
+  HeightMapConfig c;
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_DOUBLE_EQ(c.robot_height, 1.5);
+  c.robot_height = 0.0;
+  EXPECT_NE(c.validate().find("robot_height"), std::string::npos);
+  c.robot_height = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(c.validate(), "");
+  EXPECT_THROW(HeightMap{c}, std::invalid_argument);
+}
+
+TEST(HeightMap, EmptyGridHasNoHeightsAndCoversTheWindow) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f(0.3f, -0.2f, 0.0f));
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.width(), g.sizeU());
+  EXPECT_EQ(hm.height(), g.sizeV());
+  EXPECT_EQ(hm.minU(), g.minIndex().u);
+  EXPECT_EQ(hm.minV(), g.minIndex().v);
+  for (auto w : hm.data())
+    EXPECT_EQ(w, HeightMap::kNoHeight);
+}
+
+TEST(HeightMap, HighestOccupiedVoxelBelowTheRobotsTop) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  occupy(&g, 1, 1, 0);
+  occupy(&g, 1, 1, 3);   // higher, counts
+  occupy(&g, 2, 1, -4);  // below the base (a hole)
+  occupy(&g, 3, 1, 0);
+  occupy(&g, 3, 1, 15);  // centre 1.5 m: not below the 1.5 m top, the robot passes under it
+  occupy(&g, 4, 1, 0);
+  occupy(&g, 4, 1, 14);          // centre 1.4 m: below the top, an obstacle
+  g.setLogOdds({5, 1, 2}, 99);   // below occ_t = 100: free
+  g.setLogOdds({6, 1, 2}, 100);  // exactly occ_t: occupied
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.at(1, 1), 3);
+  EXPECT_EQ(hm.at(2, 1), -4);
+  EXPECT_EQ(hm.at(3, 1), 0);
+  EXPECT_EQ(hm.at(4, 1), 14);
+  EXPECT_EQ(hm.at(5, 1), HeightMap::kNoHeight);
+  EXPECT_EQ(hm.at(6, 1), 2);
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+  EXPECT_EQ(hm.topIndex(), 14);
+}
+
+TEST(HeightMap, TopFollowsTheRobotsBaseAndHeight) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f(0.0f, 0.0f, 0.5f));  // window w in [-5, 25)
+  occupy(&g, 0, 0, 19);                           // centre 1.9 m
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.5f));  // top at 2.0 m
+  EXPECT_EQ(hm.at(0, 0), 19);
+  ASSERT_TRUE(hm.build(g, 0.4f));  // top at 1.9 m: the voxel's centre is not below it
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+
+  HeightMapConfig low;
+  low.robot_height = 0.5;
+  HeightMap hm_low(low);
+  ASSERT_TRUE(hm_low.build(g, 1.5f));  // top at 2.0 m again
+  EXPECT_EQ(hm_low.at(0, 0), 19);
+}
+
+TEST(HeightMap, WindowEntirelyAboveTheTop) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  occupy(&g, 0, 0, -10);
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, -5.0f));  // top at -3.5 m, below the window's bottom (-1.05 m)
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+}
+
+TEST(HeightMap, NonFiniteBaseGivesNoHeights) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  occupy(&g, 0, 0, 0);
+  HeightMap hm;
+  EXPECT_FALSE(hm.build(g, std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_EQ(hm.width(), g.sizeU());
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+  EXPECT_FALSE(hm.build(g, std::numeric_limits<float>::infinity()));
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+  EXPECT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.at(0, 0), 0);
+}
+
+TEST(HeightMap, ManualResetAndSet) {
+  HeightMap hm;
+  hm.reset(-2, 3, 4, 5);
+  EXPECT_EQ(hm.numCells(), 20);
+  hm.set(-2, 3, 7);
+  hm.set(1, 7, -1);
+  hm.set(2, 7, 5);   // outside: ignored
+  hm.set(-3, 3, 5);  // outside: ignored
+  EXPECT_EQ(hm.at(-2, 3), 7);
+  EXPECT_EQ(hm.atIndex(hm.index(1, 7)), -1);
+  EXPECT_EQ(hm.at(2, 7), HeightMap::kNoHeight);
+  EXPECT_EQ(hm.at(100, 100), HeightMap::kNoHeight);
+  hm.reset(0, 0, -3, 4);  // negative size: empty
+  EXPECT_EQ(hm.numCells(), 0);
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+}
+
+TEST(HeightMap, ScrollingWindowForgetsColumnsThatLeft) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  occupy(&g, -9, 0, 0);  // near the window's -u edge
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.at(-9, 0), 0);
+  g.recenter(Eigen::Vector3f(0.5f, 0.0f, 0.0f));
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.minU(), g.minIndex().u);
+  EXPECT_FALSE(hm.inside(-9, 0));
+  EXPECT_EQ(hm.at(-9, 0), HeightMap::kNoHeight);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

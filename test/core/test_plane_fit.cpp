@@ -1,0 +1,242 @@
+// Least-squares plane fit (000, Sec. V-B).
+#include "stereo_safety_map/core/plane_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Points of z = a x + b y + c on an n x n lattice of spacing h around (x0, y0), plus noise.
+std::vector<Eigen::Vector3d> planePoints(double a, double b, double c, double x0, double y0, int n,
+                                         double h, double sigma, unsigned seed = 1) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  std::vector<Eigen::Vector3d> pts;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double x = x0 + (i - n / 2) * h, y = y0 + (j - n / 2) * h;
+      pts.emplace_back(x, y, a * x + b * y + c + (sigma > 0 ? noise(rng) : 0.0));
+    }
+  return pts;
+}
+
+TEST(PlaneFitConfig, Validate) {
+  PlaneFitConfig c;
+  EXPECT_EQ(c.validate(), "");
+  c.min_points = 2;
+  EXPECT_NE(c.validate().find("min_points"), std::string::npos);
+  EXPECT_THROW(PlaneFitter{c}, std::invalid_argument);
+  c = PlaneFitConfig();
+  c.min_xy_stddev = 0.0;
+  EXPECT_NE(c.validate().find("min_xy_stddev"), std::string::npos);
+}
+
+TEST(PlaneFit, ExactPlane) {
+  const auto pts = planePoints(0.1, -0.05, 0.3, 1.0, 2.0, 10, 0.05, 0.0);
+  const GroundPlane p = fitPlane(pts);
+  ASSERT_TRUE(p.valid);
+  EXPECT_NEAR(p.a, 0.1, 1e-12);
+  EXPECT_NEAR(p.b, -0.05, 1e-12);
+  EXPECT_NEAR(p.c, 0.3, 1e-12);
+  EXPECT_NEAR(p.residual_rms, 0.0, 1e-9);
+  EXPECT_EQ(p.num_points, 100u);
+  EXPECT_NEAR(p.slope_deg, std::atan(std::hypot(0.1, 0.05)) / kDeg, 1e-9);
+  EXPECT_NEAR(p.normal.norm(), 1.0, 1e-12);
+  EXPECT_GT(p.normal.z(), 0.0);
+  EXPECT_NEAR(p.normal.x() / p.normal.z(), -0.1, 1e-12);
+  EXPECT_NEAR(p.normal.y() / p.normal.z(), 0.05, 1e-12);
+  EXPECT_NEAR(p.centroid.x(), 0.975, 1e-12);  // lattice offsets -5..4 times 0.05
+  EXPECT_NEAR(p.centroid.z(), p.heightAt(p.centroid.x(), p.centroid.y()), 1e-12);
+}
+
+TEST(PlaneFit, HorizontalPlane) {
+  const GroundPlane p = fitPlane(planePoints(0.0, 0.0, -0.2, 0.0, 0.0, 5, 0.1, 0.0));
+  ASSERT_TRUE(p.valid);
+  EXPECT_NEAR(p.slope_deg, 0.0, 1e-9);
+  EXPECT_NEAR((p.normal - Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(p.heightAt(10.0, -3.0), -0.2, 1e-12);
+}
+
+TEST(PlaneFit, NoisyPlane) {
+  // A 5 deg ramp falling along y, 1 cm noise: slope within 0.1 deg, residual ~ noise.
+  const double b = -std::tan(5.0 * kDeg);
+  const auto pts = planePoints(0.0, b, 0.1, 2.0, 1.0, 30, 0.03, 0.01, 7);
+  const GroundPlane p = fitPlane(pts);
+  ASSERT_TRUE(p.valid);
+  EXPECT_NEAR(p.slope_deg, 5.0, 0.1);
+  const Eigen::Vector3d truth = Eigen::Vector3d(0.0, -b, 1.0).normalized();
+  EXPECT_LT(std::acos(std::min(1.0, p.normal.dot(truth))) / kDeg, 0.1);
+  EXPECT_NEAR(p.residual_rms, 0.01, 0.001);
+}
+
+TEST(PlaneFit, FarFromTheOriginFitsAsWellAsNearIt) {
+  // Uncentred normal equations lose ~all digits here (x^2 ~ 1e12 next to 1e-4 variations).
+  const double x0 = 1.0e6, y0 = -2.0e6;
+  const double a = 0.02, b = 0.07;
+  const double c = 5.0 - a * x0 - b * y0;  // z ~ 5 m around (x0, y0)
+  const auto far = planePoints(a, b, c, x0, y0, 20, 0.05, 0.0);
+  const GroundPlane p = fitPlane(far);
+  ASSERT_TRUE(p.valid);
+  EXPECT_NEAR(p.a, a, 1e-8);
+  EXPECT_NEAR(p.b, b, 1e-8);
+  EXPECT_NEAR(p.heightAt(x0, y0), 5.0, 1e-6);
+  EXPECT_NEAR(p.residual_rms, 0.0, 1e-6);
+
+  // The same ramp near the origin gives the same slope.
+  const GroundPlane q = fitPlane(planePoints(a, b, 5.0, 0.0, 0.0, 20, 0.05, 0.0));
+  ASSERT_TRUE(q.valid);
+  EXPECT_NEAR(p.slope_deg, q.slope_deg, 1e-6);
+
+  // Float input (the voxel grid's point type) 1 km away: float resolution there is 0.06 mm.
+  PlaneFitAccumulator acc;
+  for (const auto& v : planePoints(a, b, 0.0, 1000.0, 1000.0, 20, 0.05, 0.0)) {
+    acc.add(Eigen::Vector3f(v.cast<float>()));
+  }
+  const GroundPlane f = acc.fit(PlaneFitConfig());
+  ASSERT_TRUE(f.valid);
+  EXPECT_NEAR(f.slope_deg, q.slope_deg, 0.05);
+}
+
+TEST(PlaneFit, TooFewPointsAreInvalid) {
+  const auto pts = planePoints(0.1, 0.0, 0.0, 0.0, 0.0, 3, 0.1, 0.0);  // 9 points
+  PlaneFitConfig c;
+  c.min_points = 9;
+  EXPECT_TRUE(fitPlane(pts, c).valid);
+  c.min_points = 10;
+  const GroundPlane p = fitPlane(pts, c);
+  EXPECT_FALSE(p.valid);
+  EXPECT_EQ(p.num_points, 9u);
+
+  EXPECT_FALSE(fitPlane({}).valid);
+  EXPECT_EQ(fitPlane({}).num_points, 0u);
+  const std::vector<Eigen::Vector3d> two = {{0, 0, 0}, {1, 1, 0}};
+  EXPECT_FALSE(fitPlane(two).valid);
+  c.min_points = 3;
+  const std::vector<Eigen::Vector3d> three = {{0, 0, 0}, {1, 0, 0.1}, {0, 1, 0.2}};
+  const GroundPlane t = fitPlane(three, c);
+  ASSERT_TRUE(t.valid);
+  EXPECT_NEAR(t.a, 0.1, 1e-12);
+  EXPECT_NEAR(t.b, 0.2, 1e-12);
+}
+
+TEST(PlaneFit, DegenerateGeometryIsInvalid) {
+  std::vector<Eigen::Vector3d> line, spot, wall;
+  for (int i = 0; i < 50; ++i) {
+    line.emplace_back(0.1 * i, 0.05 * i, 0.3 * std::sin(i));                // collinear in xy
+    spot.emplace_back(1.0, 2.0, 0.01 * i);                                  // one xy position
+    wall.emplace_back(2.0 + 1e-4 * std::cos(i), 0.02 * i, 0.01 * (i % 7));  // vertical plane
+  }
+  EXPECT_FALSE(fitPlane(line).valid);
+  EXPECT_FALSE(fitPlane(spot).valid);
+  EXPECT_FALSE(fitPlane(wall).valid);
+  EXPECT_EQ(fitPlane(line).num_points, 50u);
+
+  // A one-voxel-wide strip (points spread over 0.1 m across) is not degenerate.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> across(-0.05, 0.05);
+  std::vector<Eigen::Vector3d> strip;
+  for (int i = 0; i < 50; ++i)
+    strip.emplace_back(0.04 * i, across(rng), 0.0);
+  EXPECT_TRUE(fitPlane(strip).valid);
+}
+
+TEST(PlaneFit, NonFinitePointsAreIgnored) {
+  auto pts = planePoints(0.05, 0.0, 0.0, 0.0, 0.0, 5, 0.1, 0.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  pts.insert(pts.begin(), Eigen::Vector3d(nan, 0, 0));  // not even as the reference point
+  pts.emplace_back(0, inf, 0);
+  pts.emplace_back(0, 0, -inf);
+  const GroundPlane p = fitPlane(pts);
+  ASSERT_TRUE(p.valid);
+  EXPECT_EQ(p.num_points, 25u);
+  EXPECT_NEAR(p.a, 0.05, 1e-12);
+}
+
+// A grid with points integrated from a camera above: floor z = 0 on x in [0.6, 1.4], a
+// 5 deg ramp point set and points 0.3 m above in the same columns.
+class PlaneFitterGrid : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    VoxelGridConfig c;
+    c.size_x = c.size_y = 4.0;
+    grid_ = std::make_unique<VoxelGrid>(c);
+    grid_->recenter(Eigen::Vector3f::Zero());
+    const Eigen::Isometry3f T(Eigen::Translation3f(1.0f, 0.0f, 2.0f));
+    std::vector<Eigen::Vector3f> pts;
+    for (int i = 0; i < 40; ++i)
+      for (int j = 0; j < 40; ++j) {
+        const float x = 0.6f + 0.02f * i + 0.001f, y = -0.4f + 0.02f * j + 0.001f;
+        pts.emplace_back(Eigen::Vector3f(x, y, 0.0f) - T.translation());
+        pts.emplace_back(Eigen::Vector3f(x, y, 0.3f) - T.translation());
+      }
+    // One point per voxel per frame: integrate the points one frame each.
+    std::vector<Eigen::Vector3f> one(1);
+    for (const auto& p : pts) {
+      one[0] = p;
+      grid_->integrate(one, T);
+    }
+    hm_.reset(-20, -20, 40, 40);
+    for (int v = -4; v <= 3; ++v)
+      for (int u = 6; u <= 14; ++u)
+        hm_.set(u, v, 0);
+  }
+  std::unique_ptr<VoxelGrid> grid_;
+  HeightMap hm_;
+};
+
+TEST_F(PlaneFitterGrid, UsesOnlyThePointsAtTheSegmentsIndexedHeight) {
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm_, VoxelIndex{10, 0, 0}, 0.1, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  PlaneFitter fitter;
+  const GroundPlane p = fitter.fitSegment(*grid_, s, 0);
+  ASSERT_TRUE(p.valid);
+  EXPECT_NEAR(p.c, 0.0, 1e-5);
+  EXPECT_NEAR(p.slope_deg, 0.0, 1e-3);
+  // Columns u 6..14 (x 0.55..1.45) and v -4..3 hold the points at x 0.6..1.38, y -0.4..0.38;
+  // each voxel kept at most point_list_capacity of the 25 that fell into it.
+  EXPECT_GT(p.num_points, 8u * 8u * 4u);
+  EXPECT_LE(p.num_points, 9u * 8u * 8u);
+
+  // The same columns at the upper height give the upper points.
+  for (auto& h : s.segment_height)
+    h = 3;
+  const GroundPlane q = fitter.fitSegment(*grid_, s, 0);
+  ASSERT_TRUE(q.valid);
+  EXPECT_NEAR(q.c, 0.3, 1e-5);
+  EXPECT_EQ(q.num_points, p.num_points);
+
+  std::vector<GroundPlane> planes(5);
+  fitter.fitAll(*grid_, s, &planes);
+  EXPECT_EQ(planes.size(), 1u);
+  EXPECT_FALSE(fitter.fitSegment(*grid_, s, 1).valid);
+  EXPECT_FALSE(fitter.fitSegment(*grid_, s, -1).valid);
+  fitter.fitAll(*grid_, s, nullptr);  // no crash
+}
+
+TEST_F(PlaneFitterGrid, SegmentWithoutPointsIsInvalid) {
+  HeightMap hm;
+  hm.reset(-20, -20, 40, 40);
+  for (int v = 10; v <= 15; ++v)
+    for (int u = 10; u <= 15; ++u)
+      hm.set(u, v, 0);  // columns that received no points
+  GroundSegmentation seg;
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{12, 12, 0}, 0.1, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  const GroundPlane p = PlaneFitter().fitSegment(*grid_, s, 0);
+  EXPECT_FALSE(p.valid);
+  EXPECT_EQ(p.num_points, 0u);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

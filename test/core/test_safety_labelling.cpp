@@ -1,0 +1,421 @@
+// Safety labelling, Alg. 2, and the safety map with drop-off edges (000, Sec. VI), on hand-made
+// height maps, segments and planes.
+#include "stereo_safety_map/core/safety_labelling.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr double kLv = 0.1;
+constexpr double kDeg = M_PI / 180.0;
+using L = SafetyLabel;
+
+// Row i is v = i, column j is u = j; '.' no height, '0'-'9' heights 0..9, 'a'-'i' -1..-9.
+HeightMap fromText(const std::vector<std::string>& rows) {
+  HeightMap hm;
+  hm.reset(0, 0, static_cast<int>(rows[0].size()), static_cast<int>(rows.size()));
+  for (int v = 0; v < static_cast<int>(rows.size()); ++v) {
+    for (int u = 0; u < static_cast<int>(rows[v].size()); ++u) {
+      const char ch = rows[v][u];
+      if (ch >= '0' && ch <= '9') hm.set(u, v, ch - '0');
+      if (ch >= 'a' && ch <= 'i') hm.set(u, v, -(ch - 'a' + 1));
+    }
+  }
+  return hm;
+}
+
+GroundPlane horizontal(double z) {
+  GroundPlane p;
+  p.valid = true;
+  p.c = z;
+  p.num_points = 100;
+  return p;
+}
+
+// Plane through (x0, y0, z0) rising at `deg` along +x.
+GroundPlane inclined(double deg, double x0, double z0) {
+  GroundPlane p = horizontal(0.0);
+  p.a = std::tan(deg * kDeg);
+  p.c = z0 - p.a * x0;
+  p.normal = Eigen::Vector3d(-p.a, 0.0, 1.0).normalized();
+  p.slope_deg = deg;
+  return p;
+}
+
+// Segments the height map from the robot's cell and gives each segment a horizontal plane at
+// its indexed height, unless `plane_of_height` says otherwise.
+struct World {
+  HeightMap hm;
+  GroundSegments segs;
+  std::vector<GroundPlane> planes;
+  SafetyMap map;
+
+  World(const std::vector<std::string>& rows, int ru, int rv, int rw = 0) : hm(fromText(rows)) {
+    GroundSegmentation seg;
+    EXPECT_TRUE(seg.segment(hm, VoxelIndex{ru, rv, rw}, kLv, &segs));
+    for (int k = 0; k < segs.numSegments(); ++k) {
+      planes.push_back(horizontal(segs.segment_height[k] * kLv));
+    }
+  }
+  int segAt(int u, int v) const { return segs.segment_of[segs.index(u, v)]; }
+  GroundPlane& planeAt(int u, int v) { return planes.at(segAt(u, v)); }
+  bool label(const SafetyLabellingConfig& c = SafetyLabellingConfig()) {
+    SafetyLabelling labelling(c);
+    return labelling.label(hm, segs, planes, kLv, &map);
+  }
+  L at(int u, int v) const { return map.labelAt(u, v); }
+  bool drop(int u, int v) const { return map.drop_off[map.index(u, v)] != 0; }
+};
+
+std::vector<std::string> block(int w, int h, char ch) {
+  return std::vector<std::string>(h, std::string(w, ch));
+}
+
+TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
+  SafetyLabellingConfig c;
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_DOUBLE_EQ(c.max_slope_deg, 10.0);
+  EXPECT_EQ(c.min_segment_cells, 6);
+  EXPECT_DOUBLE_EQ(c.thin_ratio, 0.1);
+  EXPECT_DOUBLE_EQ(c.max_step_height, 0.05);
+  EXPECT_EQ(c.min_passage_cells, 5);
+  EXPECT_DOUBLE_EQ(c.level_slope_deg, 3.0);
+  auto bad = [](auto mutate, const char* name) {
+    SafetyLabellingConfig b;
+    mutate(b);
+    EXPECT_NE(b.validate().find(name), std::string::npos) << name;
+  };
+  bad([](auto& b) { b.max_slope_deg = 90.0; }, "max_slope_deg");
+  bad([](auto& b) { b.min_segment_cells = -1; }, "min_segment_cells");
+  bad([](auto& b) { b.thin_ratio = std::nan(""); }, "thin_ratio");
+  bad([](auto& b) { b.max_step_height = 0.0; }, "max_step_height");
+  bad([](auto& b) { b.min_passage_cells = 0; }, "min_passage_cells");
+  bad([](auto& b) { b.level_slope_deg = 12.0; }, "level_slope_deg");
+  bad([](auto& b) { b.drop_off_radius = -0.1; }, "drop_off_radius");
+  bad([](auto& b) { b.drop_off_min_drop = -1.0; }, "drop_off_min_drop");
+  c.max_step_height = -1.0;
+  EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
+}
+
+TEST(SafetyLabelling, FlatFloorIsOneLevelSegment) {
+  World w(block(12, 10, '0'), 5, 5);
+  ASSERT_TRUE(w.label());
+  ASSERT_EQ(w.map.segments.size(), 1u);
+  const SegmentInfo& s = w.map.segments[0];
+  EXPECT_EQ(s.label, L::kLevel);
+  EXPECT_TRUE(s.reachable);
+  EXPECT_EQ(s.cells.size(), 120u);
+  EXPECT_EQ(s.num_interior, 10 * 8);  // cells on the map's edge have fewer than 8 neighbours
+  EXPECT_EQ(s.num_boundary, 120 - 80);
+  EXPECT_EQ(w.map.robot_segment, 0);
+  EXPECT_EQ(w.map.robot_u, 5);
+  for (auto l : w.map.labels)
+    EXPECT_EQ(l, L::kLevel);
+  for (auto d : w.map.drop_off)
+    EXPECT_EQ(d, 0);
+  EXPECT_EQ(w.map.column_height[w.map.index(3, 3)], 0);
+  EXPECT_DOUBLE_EQ(w.map.resolution, kLv);
+}
+
+TEST(SafetyLabelling, SlopeDecidesLevelInclinedNonGround) {
+  // Robot's floor 0, a big region 1 beyond it. The region's plane is made to meet the floor at
+  // the border (x = 0.75) with various slopes.
+  std::vector<std::string> rows(10, "000000001111111111");
+  for (double deg : {2.0, 5.0, 12.0}) {
+    World w(rows, 2, 5);
+    ASSERT_EQ(w.segs.numSegments(), 2);
+    w.planeAt(12, 5) = inclined(deg, 0.75, 0.0);
+    ASSERT_TRUE(w.label());
+    const L expect = deg <= 3.0 ? L::kLevel : deg <= 10.0 ? L::kInclined : L::kNonGround;
+    EXPECT_EQ(w.at(12, 5), expect) << deg;
+    EXPECT_EQ(w.at(2, 5), L::kLevel);
+    EXPECT_EQ(w.map.segments[w.segAt(12, 5)].reachable, deg <= 10.0);
+    // The normal of an Inclined cell is its segment's plane normal.
+    EXPECT_NEAR(std::acos(w.map.segments[w.segAt(12, 5)].plane.normal.z()) / kDeg, deg, 1e-9);
+  }
+}
+
+TEST(SafetyLabelling, RobotsSegmentIsSafeEvenWhenSteep) {
+  // Alg. 2 step 6 labels the robot's segment Safe after step 2; step 28 then makes it Inclined.
+  World w(block(10, 10, '0'), 5, 5);
+  w.planes[0] = inclined(14.0, 0.5, 0.0);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.map.segments[0].label, L::kInclined);
+  EXPECT_TRUE(w.map.segments[0].reachable);
+}
+
+TEST(SafetyLabelling, StepHeightDecidesReachability) {
+  std::vector<std::string> rows(10, "000000001111111111");
+  for (double z : {0.04, 0.06}) {
+    World w(rows, 2, 5);
+    w.planeAt(12, 5) = horizontal(z);
+    ASSERT_TRUE(w.label());
+    EXPECT_EQ(w.at(12, 5), z < 0.05 ? L::kLevel : L::kNonGround) << z;
+    EXPECT_EQ(w.map.segments[w.segAt(12, 5)].reachable, z < 0.05);
+  }
+}
+
+TEST(SafetyLabelling, ReachabilityChainsThroughSafeSegments) {
+  // 0 -> 1 -> 2, each plane 0.03 m above the previous one.
+  std::vector<std::string> rows(10, "000000111111222222");
+  World w(rows, 2, 5);
+  ASSERT_EQ(w.segs.numSegments(), 3);
+  w.planeAt(8, 5) = horizontal(0.03);
+  w.planeAt(14, 5) = horizontal(0.06);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(14, 5), L::kLevel);
+  // Raise the last one out of reach of the middle one.
+  w.planeAt(14, 5) = horizontal(0.09);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(8, 5), L::kLevel);
+  EXPECT_EQ(w.at(14, 5), L::kNonGround);
+}
+
+TEST(SafetyLabelling, PassageNarrowerThanTheRobotIsNotCrossed) {
+  // Floor 0 left, region 1 right, separated by a wall (9) with a gap of `gap` cells in column 8.
+  for (int gap : {4, 5}) {
+    std::vector<std::string> rows(12, "00000000911111111");
+    for (int v = 3; v < 3 + gap; ++v)
+      rows[v][8] = '1';
+    World w(rows, 2, 6);
+    ASSERT_EQ(w.segs.numSegments(), 2);
+    w.planeAt(12, 6) = horizontal(0.02);
+    ASSERT_TRUE(w.label());
+    // num_T = 5 cells of robot width: a 4-cell gap is too narrow.
+    EXPECT_EQ(w.at(12, 6), gap >= 5 ? L::kLevel : L::kNonGround) << gap;
+    EXPECT_EQ(w.at(8, 0), L::kNonGround);  // the wall
+  }
+}
+
+TEST(SafetyLabelling, SmallAndThinSegmentsAreUnknown) {
+  std::vector<std::string> rows = block(20, 14, '0');
+  rows[2].replace(2, 2, "11");  // 2 x 2 = 4 cells: small
+  rows[3].replace(2, 2, "11");
+  rows[8].replace(2, 14, std::string(14, '1'));  // 2 x 14 = 28 cells, no interior: thin
+  rows[9].replace(2, 14, std::string(14, '1'));
+  for (int v = 2; v <= 6; ++v)
+    rows[v].replace(12, 5, "11111");  // 5 x 5: interior 9, boundary 16
+  World w(rows, 8, 12);
+  ASSERT_EQ(w.segs.numSegments(), 4);
+  for (auto& p : w.planes)
+    p = horizontal(0.01);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(2, 2), L::kUnknown);
+  EXPECT_EQ(w.at(10, 9), L::kUnknown);
+  EXPECT_EQ(w.at(14, 4), L::kLevel);
+  EXPECT_EQ(w.map.segments[w.segAt(14, 4)].num_interior, 9);
+  EXPECT_EQ(w.map.segments[w.segAt(14, 4)].num_boundary, 16);
+
+  // Thin threshold: with r_thin = 0.6 the 5 x 5 square (9 < 0.6 * 16) is thin as well.
+  SafetyLabellingConfig c;
+  c.thin_ratio = 0.6;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(14, 4), L::kUnknown);
+  // n_small = 30 makes the 28-cell strip and the square small.
+  c = SafetyLabellingConfig();
+  c.min_segment_cells = 30;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(14, 4), L::kUnknown);
+  EXPECT_EQ(w.at(0, 0), L::kLevel);  // the robot's segment is exempt
+}
+
+TEST(SafetyLabelling, UnknownSegmentsDoNotPassOnReachability) {
+  // Floor 0 | strip of 1s two cells wide (thin, Unknown) | floor 2 beyond, only touching the strip.
+  std::vector<std::string> rows(10, "0000001122222222");
+  World w(rows, 2, 5);
+  ASSERT_EQ(w.segs.numSegments(), 3);
+  w.planeAt(7, 5) = horizontal(0.0);
+  w.planeAt(12, 5) = horizontal(0.0);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(7, 5), L::kUnknown);
+  EXPECT_EQ(w.at(12, 5), L::kNonGround);  // step 27: never reached
+  EXPECT_FALSE(w.map.segments[w.segAt(12, 5)].reachable);
+}
+
+TEST(SafetyLabelling, InvalidPlanesAreUnknown) {
+  std::vector<std::string> rows(10, "000000001111111111");
+  World w(rows, 2, 5);
+  w.planeAt(12, 5).valid = false;
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(12, 5), L::kUnknown);
+  EXPECT_EQ(w.at(2, 5), L::kLevel);
+
+  // The robot's segment without a plane: nothing can be compared with it, nothing is reached.
+  World r(rows, 2, 5);
+  r.planeAt(2, 5).valid = false;
+  ASSERT_TRUE(r.label());
+  EXPECT_EQ(r.at(2, 5), L::kUnknown);
+  EXPECT_EQ(r.at(12, 5), L::kNonGround);
+
+  // Fewer planes than segments: the missing ones are invalid.
+  World m(rows, 2, 5);
+  m.planes.resize(1);
+  ASSERT_TRUE(m.label());
+  EXPECT_EQ(m.at(2, 5), L::kLevel);
+  EXPECT_EQ(m.at(12, 5), L::kUnknown);
+}
+
+TEST(SafetyLabelling, CellMapLabels) {
+  // Robot at (5, 5) with R_max = 0.4 m: a 9-cell-diameter disc is examined.
+  std::vector<std::string> rows = {
+      "00000000000",  //
+      "00000000000",  //
+      "00000000000",  //
+      "00000550000",  //
+      "000..550000",  //
+      "000..000000",  //
+      "00000000000",  //
+      "00000000000",  //
+      "00000000000",  //
+      "00000000000",  //
+      "00000000000",  //
+  };
+  HeightMap hm = fromText(rows);
+  GroundSegmentationConfig gc;
+  gc.planning_radius = 0.4;
+  GroundSegmentation seg(gc);
+  GroundSegments segs;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{5, 5, 0}, kLv, &segs));
+  std::vector<GroundPlane> planes(segs.numSegments(), horizontal(0.0));
+  SafetyMap map;
+  ASSERT_TRUE(SafetyLabelling().label(hm, segs, planes, kLv, &map));
+  EXPECT_EQ(map.labelAt(5, 5), L::kLevel);
+  EXPECT_EQ(map.labelAt(5, 3), L::kNonGround);  // box, non-traversable
+  EXPECT_EQ(map.labelAt(3, 4), L::kUnknown);    // no data inside R_max
+  EXPECT_EQ(map.labelAt(0, 0), L::kUnexamined);
+  EXPECT_EQ(map.labelAt(9, 5), L::kLevel);  // 0.4 m: inside
+  EXPECT_EQ(map.labelAt(10, 5), L::kUnexamined);
+  EXPECT_EQ(map.segment[map.index(5, 3)], -1);
+  EXPECT_EQ(map.segment[map.index(5, 5)], 0);
+  EXPECT_EQ(map.column_height[map.index(5, 3)], 5);
+  EXPECT_EQ(map.column_height[map.index(3, 4)], SafetyMap::kNoHeight);
+}
+
+// Floor (0) with an unobserved shadow band and a lower level (-2) beyond it.
+std::vector<std::string> dropWorld(int shadow, char beyond) {
+  std::vector<std::string> rows;
+  for (int v = 0; v < 16; ++v) {
+    std::string r = std::string(12, '0') + std::string(shadow, '.');
+    r += std::string(24 - r.size(), beyond);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+TEST(SafetyLabelling, DropOffEdgesBesideUnknownCellsNearLowerCells) {
+  World w(dropWorld(3, 'b'), 4, 8);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(20, 8), L::kNonGround);  // lower level: unreachable
+  EXPECT_EQ(w.at(12, 8), L::kUnknown);    // shadow
+  for (int v = 0; v < 16; ++v) {
+    EXPECT_TRUE(w.drop(11, v)) << v;  // the edge: next to the shadow, 0.4 m from lower cells
+    EXPECT_FALSE(w.drop(10, v)) << v;
+    EXPECT_FALSE(w.drop(16, v)) << v;  // not on a safe segment
+  }
+
+  // Shadow wider than the radius: the lower cells are not "close".
+  World wide(dropWorld(6, 'b'), 4, 8);
+  ASSERT_TRUE(wide.label());
+  for (int v = 0; v < 16; ++v)
+    EXPECT_FALSE(wide.drop(11, v));
+  SafetyLabellingConfig c;
+  c.drop_off_radius = 0.7;
+  ASSERT_TRUE(wide.label(c));
+  EXPECT_TRUE(wide.drop(11, 8));
+
+  // Higher cells beyond the shadow (a wall) are no drop.
+  World wall(dropWorld(3, '9'), 4, 8);
+  ASSERT_TRUE(wall.label());
+  for (auto d : wall.map.drop_off)
+    EXPECT_EQ(d, 0);
+
+  // A drop smaller than drop_off_min_drop is no drop: lower level at -1 (0.1 m) with 0.15 m.
+  World shallow(dropWorld(3, 'a'), 4, 8);
+  c = SafetyLabellingConfig();
+  c.drop_off_min_drop = 0.15;
+  ASSERT_TRUE(shallow.label(c));
+  for (auto d : shallow.map.drop_off)
+    EXPECT_EQ(d, 0);
+  ASSERT_TRUE(shallow.label());
+  EXPECT_TRUE(shallow.drop(11, 8));
+
+  c = SafetyLabellingConfig();
+  c.mark_drop_offs = false;
+  ASSERT_TRUE(w.label(c));
+  for (auto d : w.map.drop_off)
+    EXPECT_EQ(d, 0);
+}
+
+TEST(SafetyLabelling, DropOffNeedsAnUnknownNeighbour) {
+  // Floor stepping straight down to -2 without a shadow: the lower cells are Non-ground, not
+  // Unknown, so no potential drop-off edge (the drop is seen).
+  std::vector<std::string> rows(10, "000000000000bbbbbbbb");
+  World w(rows, 4, 5);
+  ASSERT_TRUE(w.label());
+  for (auto d : w.map.drop_off)
+    EXPECT_EQ(d, 0);
+}
+
+TEST(SafetyLabelling, BadInputGivesAnUnknownMap) {
+  World w(block(8, 8, '0'), 4, 4);
+  SafetyLabelling labelling;
+  SafetyMap map;
+  HeightMap other = fromText(block(9, 8, '0'));
+  EXPECT_FALSE(labelling.label(other, w.segs, w.planes, kLv, &map));
+  EXPECT_EQ(map.width, 9);
+  EXPECT_EQ(map.labels.size(), 72u);
+  for (auto l : map.labels)
+    EXPECT_EQ(l, L::kUnknown);
+  EXPECT_TRUE(map.segments.empty());
+  EXPECT_EQ(map.robot_segment, -1);
+
+  EXPECT_FALSE(labelling.label(w.hm, w.segs, w.planes, 0.0, &map));
+  EXPECT_FALSE(labelling.label(w.hm, w.segs, w.planes, std::nan(""), &map));
+  EXPECT_FALSE(labelling.label(w.hm, w.segs, w.planes, kLv, nullptr));
+
+  GroundSegments broken = w.segs;
+  broken.segment_cells[3] = 100000;
+  EXPECT_FALSE(labelling.label(w.hm, broken, w.planes, kLv, &map));
+  broken = w.segs;
+  broken.segment_begin.pop_back();
+  EXPECT_FALSE(labelling.label(w.hm, broken, w.planes, kLv, &map));
+  broken = w.segs;
+  broken.robot_segment = 5;
+  EXPECT_FALSE(labelling.label(w.hm, broken, w.planes, kLv, &map));
+
+  // Still usable afterwards.
+  EXPECT_TRUE(labelling.label(w.hm, w.segs, w.planes, kLv, &map));
+  EXPECT_EQ(map.labelAt(1, 1), L::kLevel);
+
+  // Empty height map and no segments.
+  HeightMap empty;
+  GroundSegments none;
+  GroundSegmentation().segment(empty, VoxelIndex{0, 0, 0}, kLv, &none);
+  EXPECT_TRUE(labelling.label(empty, none, {}, kLv, &map));
+  EXPECT_TRUE(map.labels.empty());
+}
+
+TEST(SafetyLabelling, NoRobotSegmentLeavesNothingSafe) {
+  // Robot far from any observed cell: every examined column is non-traversable.
+  World w(block(30, 30, '0'), 29, 29);
+  HeightMap hm = w.hm;
+  for (int v = 15; v < 30; ++v)
+    for (int u = 15; u < 30; ++u)
+      hm.set(u, v, HeightMap::kNoHeight);
+  GroundSegments segs;
+  GroundSegmentation().segment(hm, VoxelIndex{29, 29, 0}, kLv, &segs);
+  ASSERT_EQ(segs.numSegments(), 0);
+  SafetyMap map;
+  ASSERT_TRUE(SafetyLabelling().label(hm, segs, {}, kLv, &map));
+  EXPECT_EQ(map.robot_segment, -1);
+  EXPECT_EQ(map.labelAt(10, 10), L::kNonGround);
+  EXPECT_EQ(map.labelAt(20, 20), L::kUnknown);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

@@ -1,0 +1,602 @@
+// The per-frame pipeline of paper 000 end to end: synthetic worlds seen by a pinhole camera
+// 1.1 m above the robot's base, pitched down, driven forward over 24 frames with a small yaw
+// wobble and alternating pitch, points with small noise. Each world's answer is known by
+// construction.
+#include "stereo_safety_map/core/safety_mapper.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+using L = SafetyLabel;
+
+// ---------------------------------------------------------------------------------------------
+// Synthetic world: a height field plus solid boxes, ray cast from a pinhole camera.
+
+struct Box {
+  Eigen::Vector3d lo, hi;
+};
+
+struct World {
+  std::function<double(double, double)> ground = [](double, double) { return 0.0; };
+  std::vector<Box> boxes;
+};
+
+struct Rig {
+  int width = 96, height = 72;  // pixels
+  double hfov_deg = 80.0;
+  double camera_height = 1.1;                     // above the robot's base [m]
+  double pitch_a_deg = 22.0, pitch_b_deg = 34.0;  // down, alternating frames
+  double yaw_amplitude_deg = 8.0;
+  int frames = 24;
+  double step = 0.03;          // forward motion per frame [m]; the last frame is at x = end_x
+  double sigma = 0.003;        // isotropic noise [m]
+  double sigma_range = 0.001;  // along-ray noise per squared metre of range (stereo-like)
+  double max_range = 8.0;
+};
+
+double hitBox(const Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+  double t0 = 0.0, t1 = 1e9;
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(d[a]) < 1e-12) {
+      if (o[a] < b.lo[a] || o[a] > b.hi[a]) return -1.0;
+      continue;
+    }
+    double ta = (b.lo[a] - o[a]) / d[a], tb = (b.hi[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return -1.0;
+  }
+  return t0;
+}
+
+// Distance to the first surface along o + t d (|d| = 1) within tmax, or -1.
+double castRay(const World& w, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double tmax) {
+  double best = tmax;
+  for (const Box& b : w.boxes) {
+    const double t = hitBox(b, o, d);
+    if (t > 0.0 && t < best) best = t;
+  }
+  double t = 0.0, prev = 0.0;
+  bool below = false;
+  while (t < best) {
+    const Eigen::Vector3d p = o + t * d;
+    const double h = p.z() - w.ground(p.x(), p.y());
+    if (h < 0.0) {
+      below = true;
+      break;
+    }
+    prev = t;
+    t += std::clamp(0.5 * h, 0.005, 0.05);
+  }
+  if (!below) return best < tmax ? best : -1.0;
+  double lo = prev, hi = t;
+  for (int i = 0; i < 30; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    const Eigen::Vector3d p = o + mid * d;
+    (p.z() < w.ground(p.x(), p.y()) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
+// Optical frame (x right, y down, z forward) at `pos`, yawed, pitched down by pitch_deg.
+Eigen::Isometry3f cameraPose(const Eigen::Vector3d& pos, double yaw_deg, double pitch_deg) {
+  Eigen::Matrix3d base;
+  base.col(0) = Eigen::Vector3d(0, -1, 0);
+  base.col(1) = Eigen::Vector3d(0, 0, -1);
+  base.col(2) = Eigen::Vector3d(1, 0, 0);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+               Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) * base;
+  T.translation() = pos;
+  return T.cast<float>();
+}
+
+struct Frame {
+  std::vector<Eigen::Vector3f> points;  // sensor frame
+  Eigen::Isometry3f T;                  // fixed <- sensor
+  Eigen::Vector3f robot;                // base position
+};
+
+Frame render(const World& w, const Rig& rig, double x, double y, double yaw_deg, double pitch_deg,
+             std::mt19937* rng) {
+  Frame f;
+  const double base_z = w.ground(x, y);
+  f.robot = Eigen::Vector3f(x, y, base_z);
+  const Eigen::Vector3d cam(x, y, base_z + rig.camera_height);
+  f.T = cameraPose(cam, yaw_deg, pitch_deg);
+  const Eigen::Matrix3d R = f.T.linear().cast<double>();
+  const double fpx = 0.5 * rig.width / std::tan(0.5 * rig.hfov_deg * kDeg);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (int j = 0; j < rig.height; ++j) {
+    for (int i = 0; i < rig.width; ++i) {
+      const Eigen::Vector3d ray(((i + 0.5) - 0.5 * rig.width) / fpx,
+                                ((j + 0.5) - 0.5 * rig.height) / fpx, 1.0);
+      const Eigen::Vector3d d = (R * ray).normalized();
+      const double t = castRay(w, cam, d, rig.max_range);
+      if (t < 0.0) continue;
+      Eigen::Vector3d p = cam + t * d;
+      p += d * (rig.sigma_range * t * t * n01(*rng));
+      p += rig.sigma * Eigen::Vector3d(n01(*rng), n01(*rng), n01(*rng));
+      f.points.push_back((R.transpose() * (p - cam)).cast<float>());
+    }
+  }
+  return f;
+}
+
+std::vector<Frame> drive(const World& w, const Rig& rig = Rig(), double end_x = 0.0,
+                         unsigned seed = 1) {
+  std::mt19937 rng(seed);
+  std::vector<Frame> frames;
+  for (int k = 0; k < rig.frames; ++k) {
+    const double x = end_x - rig.step * (rig.frames - 1 - k);
+    const double yaw = rig.yaw_amplitude_deg * std::sin(0.9 * k);
+    const double pitch = (k % 2 == 0) ? rig.pitch_a_deg : rig.pitch_b_deg;
+    frames.push_back(render(w, rig, x, 0.0, yaw, pitch, &rng));
+  }
+  return frames;
+}
+
+std::unique_ptr<SafetyMapper> run(const std::vector<Frame>& frames,
+                                  const SafetyMapperConfig& c = SafetyMapperConfig()) {
+  auto m = std::make_unique<SafetyMapper>(c);
+  for (const Frame& f : frames) {
+    FrameResult r;
+    EXPECT_TRUE(m->integrateFrame(f.points, f.T, f.robot, &r)) << toString(r.status);
+  }
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Map inspection.
+
+int cellOf(double x, double l = 0.1) {
+  return static_cast<int>(std::lround(x / l));
+}
+
+L labelAt(const SafetyMap& m, double x, double y) {
+  return m.labelAt(cellOf(x, m.resolution), cellOf(y, m.resolution));
+}
+
+// Labels of the cells whose centres are in [x0, x1] x [y0, y1].
+std::vector<int> cellsIn(const SafetyMap& m, double x0, double x1, double y0, double y1) {
+  std::vector<int> cells;
+  for (int v = cellOf(y0, m.resolution); v <= cellOf(y1, m.resolution); ++v)
+    for (int u = cellOf(x0, m.resolution); u <= cellOf(x1, m.resolution); ++u)
+      if (m.inside(u, v)) cells.push_back(m.index(u, v));
+  return cells;
+}
+
+int countLabel(const SafetyMap& m, const std::vector<int>& cells, L l) {
+  return static_cast<int>(
+      std::count_if(cells.begin(), cells.end(), [&](int c) { return m.labels[c] == l; }));
+}
+
+// ASCII picture for failure messages: x up the page, +y to the left.
+std::string ascii(const SafetyMap& m, double x0 = -0.5, double x1 = 4.1, double half_y = 2.0) {
+  static const char kCh[] = {' ', '?', '.', '/', '#'};
+  std::string s =
+      "\n(' ' Unexamined, ? Unknown, . Level, / Inclined, # Non-ground, D drop-off, R robot)\n";
+  for (int u = cellOf(x1); u >= cellOf(x0); --u) {
+    char buf[16];
+    std::snprintf(buf, sizeof(buf), "%5.1f ", u * m.resolution);
+    s += buf;
+    for (int v = cellOf(half_y); v >= -cellOf(half_y); --v) {
+      if (!m.inside(u, v)) {
+        s += 'x';
+      } else if (u == m.robot_u && v == m.robot_v) {
+        s += 'R';
+      } else {
+        const int c = m.index(u, v);
+        s += m.drop_off[c] ? 'D' : kCh[static_cast<int>(m.labels[c])];
+      }
+    }
+    s += '\n';
+  }
+  return s;
+}
+
+// A pose 5 cm ahead of T: never stationary with respect to T.
+Eigen::Isometry3f movedPose(const Eigen::Isometry3f& T) {
+  Eigen::Isometry3f M = T;
+  M.translation().x() += 0.05f;
+  return M;
+}
+
+const SegmentInfo* robotSegment(const SafetyMap& m) {
+  return m.robot_segment >= 0 ? &m.segments[m.robot_segment] : nullptr;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(SafetyMapperConfig, DefaultsAndValidate) {
+  SafetyMapperConfig c;
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_DOUBLE_EQ(c.stationary_translation, 0.02);
+  EXPECT_DOUBLE_EQ(c.stationary_rotation_deg, 1.0);
+  EXPECT_TRUE(c.skip_stationary_frames);
+  EXPECT_TRUE(c.scroll_with_robot);
+  c.labelling.max_slope_deg = -1.0;
+  EXPECT_EQ(c.validate().rfind("labelling.max_slope_deg", 0), 0u) << c.validate();
+  EXPECT_THROW(SafetyMapper{c}, std::invalid_argument);
+  c = SafetyMapperConfig();
+  c.segmentation.connectivity = 5;
+  EXPECT_EQ(c.validate().rfind("segmentation.connectivity", 0), 0u) << c.validate();
+  c = SafetyMapperConfig();
+  c.plane_fit.min_points = 0;
+  EXPECT_EQ(c.validate().rfind("plane_fit.min_points", 0), 0u) << c.validate();
+  c = SafetyMapperConfig();
+  c.height_map.robot_height = -1.0;
+  EXPECT_EQ(c.validate().rfind("height_map.robot_height", 0), 0u) << c.validate();
+  c = SafetyMapperConfig();
+  c.grid.voxel_size = 0.0;
+  EXPECT_EQ(c.validate().rfind("grid.", 0), 0u) << c.validate();
+  c = SafetyMapperConfig();
+  c.stationary_translation = -0.1;
+  EXPECT_NE(c.validate().find("stationary_translation"), std::string::npos);
+  c = SafetyMapperConfig();
+  c.stationary_rotation_deg = std::nan("");
+  EXPECT_NE(c.validate().find("stationary_rotation_deg"), std::string::npos);
+}
+
+TEST(SafetyMapper, FlatFloorIsOneLevelSegmentAndFarCellsAreUnexamined) {
+  World w;
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  ASSERT_NE(robotSegment(m), nullptr) << ascii(m);
+  const SegmentInfo& floor = *robotSegment(m);
+  EXPECT_EQ(floor.label, L::kLevel);
+  EXPECT_LT(floor.plane.slope_deg, 0.5);
+  EXPECT_NEAR(floor.plane.c, 0.0, 0.01);
+  int safe_segments = 0;
+  for (const auto& s : m.segments)
+    safe_segments += isSafe(s.label);
+  EXPECT_EQ(safe_segments, 1) << ascii(m);
+  EXPECT_GT(floor.cells.size(), 1000u);
+
+  const auto ahead = cellsIn(m, 0.8, 3.5, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, ahead, L::kLevel), static_cast<int>(ahead.size())) << ascii(m);
+  // No obstacle where the floor is well observed. (At the field of view's far corners an
+  // observed cell cut off from the floor by unobserved ones is, by Alg. 1, non-traversable.)
+  EXPECT_EQ(countLabel(m, cellsIn(m, 0.0, 3.5, -1.5, 1.5), L::kNonGround), 0) << ascii(m);
+
+  // Alg. 1 step 3: exactly the cells farther than R_max = 4 m from the robot's cell.
+  ASSERT_EQ(m.robot_u, 0);
+  ASSERT_EQ(m.robot_v, 0);
+  for (int v = m.min_v; v < m.min_v + m.height; ++v) {
+    for (int u = m.min_u; u < m.min_u + m.width; ++u) {
+      const bool far = u * u + v * v > 40 * 40;
+      ASSERT_EQ(m.labelAt(u, v) == L::kUnexamined, far) << u << " " << v;
+    }
+  }
+  EXPECT_EQ(labelAt(m, 4.5, 0.0), L::kUnexamined);
+  EXPECT_EQ(labelAt(m, 3.9, 0.0), L::kLevel);
+  EXPECT_EQ(labelAt(m, -0.5, 0.0), L::kUnknown);  // behind the robot: never seen
+}
+
+TEST(SafetyMapper, FiveDegreeRampIsInclinedWithTheRightNormal) {
+  World w;
+  const double slope = std::tan(5.0 * kDeg);
+  w.ground = [slope](double x, double) { return x < 1.0 ? 0.0 : (x - 1.0) * slope; };
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  ASSERT_NE(robotSegment(m), nullptr) << ascii(m);
+  EXPECT_EQ(robotSegment(m)->label, L::kLevel);
+  EXPECT_EQ(countLabel(m, cellsIn(m, 0.4, 0.9, -0.3, 0.3), L::kLevel), 6 * 7) << ascii(m);
+  const auto ramp = cellsIn(m, 1.8, 3.5, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, ramp, L::kInclined), static_cast<int>(ramp.size())) << ascii(m);
+
+  const Eigen::Vector3d truth(-std::sin(5.0 * kDeg), 0.0, std::cos(5.0 * kDeg));
+  int inclined = 0;
+  for (const auto& s : m.segments) {
+    if (s.label != L::kInclined || s.cells.size() < 50) continue;
+    ++inclined;
+    EXPECT_LT(std::acos(std::min(1.0, s.plane.normal.dot(truth))) / kDeg, 0.5)
+        << "segment " << s.id << " slope " << s.plane.slope_deg;
+    EXPECT_TRUE(s.reachable);
+  }
+  EXPECT_GE(inclined, 2);  // the ramp rises 0.1 m (one voxel) every 1.14 m
+}
+
+TEST(SafetyMapper, FifteenDegreeRampIsNonGround) {
+  World w;
+  const double slope = std::tan(15.0 * kDeg);
+  w.ground = [slope](double x, double) { return x < 1.0 ? 0.0 : (x - 1.0) * slope; };
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  ASSERT_NE(robotSegment(m), nullptr) << ascii(m);
+  EXPECT_EQ(robotSegment(m)->label, L::kLevel);
+  const auto ramp = cellsIn(m, 1.3, 3.5, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, ramp, L::kLevel) + countLabel(m, ramp, L::kInclined), 0) << ascii(m);
+  EXPECT_GE(countLabel(m, ramp, L::kNonGround), static_cast<int>(0.9 * ramp.size())) << ascii(m);
+  int steep = 0;
+  for (const auto& s : m.segments) {
+    if (s.indexed_height < 1 || s.cells.size() < 50) continue;
+    ++steep;
+    EXPECT_NEAR(s.plane.slope_deg, 15.0, 1.0);
+    EXPECT_EQ(s.label, L::kNonGround);
+  }
+  EXPECT_GE(steep, 4);
+}
+
+TEST(SafetyMapper, DropOfTwentyCentimetres) {
+  World w;
+  w.ground = [](double x, double) { return x < 2.0 ? 0.0 : -0.2; };
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  const auto upper = cellsIn(m, 0.5, 1.8, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, upper, L::kLevel), static_cast<int>(upper.size())) << ascii(m);
+  const auto lower = cellsIn(m, 2.5, 3.5, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, lower, L::kNonGround), static_cast<int>(lower.size())) << ascii(m);
+  // The occluded band behind the edge is Unknown and the edge is a potential drop-off.
+  EXPECT_EQ(labelAt(m, 2.2, 0.0), L::kUnknown) << ascii(m);
+  for (int v = -5; v <= 5; ++v) {
+    bool edge = false;
+    for (int u = 18; u <= 20; ++u)
+      edge = edge || m.drop_off[m.index(u, v)];
+    EXPECT_TRUE(edge) << "row v = " << v << ascii(m);
+  }
+  for (int c : cellsIn(m, -5.0, 1.7, -5.0, 5.0))
+    EXPECT_EQ(m.drop_off[c], 0) << ascii(m);
+  for (int c = 0; c < static_cast<int>(m.drop_off.size()); ++c) {
+    if (m.drop_off[c]) {
+      EXPECT_TRUE(isSafe(m.labels[c]));
+    }
+  }
+}
+
+TEST(SafetyMapper, FourCentimetreStepIsReachableTenCentimetreStepIsNot) {
+  for (const double step : {0.04, 0.10}) {
+    World w;
+    const double base = step < 0.05 ? 0.03 : 0.0;  // both step sizes cross a voxel boundary
+    w.ground = [base, step](double x, double) { return x < 1.8 ? base : base + step; };
+    const auto mapper = run(drive(w));
+    const SafetyMap& m = mapper->safetyMap();
+    ASSERT_NE(robotSegment(m), nullptr) << ascii(m);
+    const auto beyond = cellsIn(m, 2.0, 3.5, -0.5, 0.5);
+    const L expect = step < 0.05 ? L::kLevel : L::kNonGround;
+    EXPECT_EQ(countLabel(m, beyond, expect), static_cast<int>(beyond.size()))
+        << "step " << step << ascii(m);
+    // The upper level is its own segment: reachability, not the segmentation, decided.
+    const int seg = m.segment[m.index(30, 0)];
+    ASSERT_GE(seg, 0);
+    EXPECT_NE(seg, m.robot_segment);
+    EXPECT_NEAR(m.segments[seg].plane.c, base + step, 0.01);
+    EXPECT_EQ(m.segments[seg].reachable, step < 0.05);
+  }
+}
+
+TEST(SafetyMapper, BoxIsNonGround) {
+  World w;
+  w.boxes.push_back({{2.0, -0.3, -0.1}, {2.4, 0.3, 0.5}});
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  const auto box = cellsIn(m, 2.05, 2.3, -0.25, 0.25);
+  EXPECT_EQ(countLabel(m, box, L::kNonGround), static_cast<int>(box.size())) << ascii(m);
+  for (int c : box)
+    EXPECT_EQ(m.column_height[c], 5);  // the box's top at 0.5 m
+  const auto front = cellsIn(m, 1.0, 1.8, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, front, L::kLevel), static_cast<int>(front.size())) << ascii(m);
+  EXPECT_EQ(labelAt(m, 2.0, 0.6), L::kLevel);  // beside the box
+}
+
+TEST(SafetyMapper, OverhangAboveTheRobotIsIgnoredBelowItIsNonGround) {
+  // A slab 1.6-1.7 m up (robot height 1.5 m): the camera, pitched up a little, sees its face and
+  // underside.
+  Rig rig;
+  rig.pitch_a_deg = 10.0;
+  rig.pitch_b_deg = 30.0;
+  World high;
+  high.boxes.push_back({{2.0, -1.0, 1.6}, {3.0, 1.0, 1.7}});
+  const auto mh = run(drive(high, rig));
+  const SafetyMap& m = mh->safetyMap();
+  int seen = 0;  // the slab is in the grid, so the test is not vacuous
+  for (int u = 20; u <= 30; ++u)
+    for (int v = -10; v <= 10; ++v)
+      seen += mh->grid().isOccupied({u, v, 16}) + mh->grid().isOccupied({u, v, 17});
+  EXPECT_GT(seen, 20);
+  const auto under = cellsIn(m, 1.9, 3.1, -1.0, 1.0);
+  EXPECT_EQ(countLabel(m, under, L::kNonGround), 0) << ascii(m);
+  const auto core = cellsIn(m, 2.1, 2.9, -0.5, 0.5);
+  EXPECT_EQ(countLabel(m, core, L::kLevel), static_cast<int>(core.size())) << ascii(m);
+  for (int c : core)
+    EXPECT_EQ(m.column_height[c], 0);
+
+  // The same slab 0.6-0.7 m up, seen from the standard rig (its top is seen at a grazing angle
+  // when the camera looks up, and free-space updates then thin it out).
+  World low;
+  low.boxes.push_back({{2.0, -1.0, 0.6}, {3.0, 1.0, 0.7}});
+  const auto ml = run(drive(low));
+  const SafetyMap& n = ml->safetyMap();
+  const auto slab = cellsIn(n, 2.1, 2.8, -0.8, 0.8);
+  EXPECT_EQ(countLabel(n, slab, L::kNonGround), static_cast<int>(slab.size())) << ascii(n);
+  EXPECT_EQ(labelAt(n, 1.5, 0.0), L::kLevel);
+
+  // With a 2 m tall robot the high slab blocks as well.
+  SafetyMapperConfig tall;
+  tall.height_map.robot_height = 2.0;
+  const auto mt = run(drive(high, rig), tall);
+  EXPECT_GT(countLabel(mt->safetyMap(), under, L::kNonGround), 20) << ascii(mt->safetyMap());
+}
+
+TEST(SafetyMapper, SmallAndThinSegmentsAreUnknown) {
+  World w;
+  // A 0.08 m square block 0.1 m high inside one cell (small segment) and a rail one cell wide,
+  // 0.8 m long, 0.1 m high (thin segment).
+  w.boxes.push_back({{1.96, -0.54, -0.1}, {2.04, -0.46, 0.1}});
+  w.boxes.push_back({{2.46, 0.05, -0.1}, {2.54, 0.85, 0.1}});
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  const int small = m.segment[m.index(20, -5)];
+  ASSERT_GE(small, 0) << ascii(m);
+  EXPECT_EQ(m.segments[small].indexed_height, 1);
+  EXPECT_LT(m.segments[small].cells.size(), 6u);
+  EXPECT_EQ(m.labelAt(20, -5), L::kUnknown) << ascii(m);
+
+  const int thin = m.segment[m.index(25, 4)];
+  ASSERT_GE(thin, 0) << ascii(m);
+  const SegmentInfo& t = m.segments[thin];
+  EXPECT_EQ(t.indexed_height, 1);
+  EXPECT_GE(t.cells.size(), 6u);  // not small: thin
+  EXPECT_LT(t.num_interior, 0.1 * t.num_boundary);
+  EXPECT_EQ(t.label, L::kUnknown);
+  for (int c : t.cells)
+    EXPECT_EQ(m.labels[c], L::kUnknown);
+
+  const auto around = cellsIn(m, 1.0, 1.8, -0.8, 0.8);
+  EXPECT_EQ(countLabel(m, around, L::kLevel), static_cast<int>(around.size())) << ascii(m);
+}
+
+TEST(SafetyMapper, StationaryFramesAreSkipped) {
+  World w;
+  std::mt19937 rng(3);
+  const Frame f0 = render(w, Rig(), 0.0, 0.0, 0.0, 30.0, &rng);
+  SafetyMapper m;
+  FrameResult r;
+  ASSERT_TRUE(m.integrateFrame(f0.points, f0.T, f0.robot, &r));  // the first frame always
+  EXPECT_EQ(r.status, FrameStatus::kIntegrated);
+  EXPECT_EQ(m.grid().frameCount(), 1u);
+
+  EXPECT_FALSE(m.integrateFrame(f0.points, f0.T, f0.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kStationary);
+  EXPECT_NE(std::string(toString(r.status)).find("stationary"), std::string::npos);
+  EXPECT_EQ(m.grid().frameCount(), 1u);
+
+  auto moved = [&](double dx, double yaw_deg) {
+    Eigen::Isometry3f T = f0.T;
+    T.translation().x() += static_cast<float>(dx);
+    T.linear() = Eigen::AngleAxisf(static_cast<float>(yaw_deg * kDeg), Eigen::Vector3f::UnitZ()) *
+                 T.linear();
+    return T;
+  };
+  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.01, 0.5), f0.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kStationary);
+  // Creeping: compared with the last integrated pose, not the last frame.
+  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.015, 0.0), f0.robot, &r));
+  ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.03, 0.0), f0.robot, &r));
+  EXPECT_EQ(m.grid().frameCount(), 2u);
+  ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.03, 1.5), f0.robot, &r));  // rotation alone
+  EXPECT_EQ(m.framesIntegrated(), 3u);
+
+  SafetyMapperConfig c;
+  c.skip_stationary_frames = false;
+  SafetyMapper all(c);
+  EXPECT_TRUE(all.integrateFrame(f0.points, f0.T, f0.robot, &r));
+  EXPECT_TRUE(all.integrateFrame(f0.points, f0.T, f0.robot, &r));
+  EXPECT_EQ(all.grid().frameCount(), 2u);
+
+  // After reset() the next frame is a first frame again.
+  m.reset();
+  EXPECT_TRUE(m.safetyMap().labels.empty());
+  EXPECT_TRUE(m.integrateFrame(f0.points, moved(0.03, 1.5), f0.robot, &r));
+}
+
+TEST(SafetyMapper, BadInputLeavesTheMapUncorrupted) {
+  World w;
+  w.boxes.push_back({{2.0, -0.3, -0.1}, {2.4, 0.3, 0.5}});
+  const std::vector<Frame> frames = drive(w);
+  const auto reference = run(frames);
+
+  // Same frames with NaN / inf points and points outside the grid (high up, their rays cross
+  // nothing) appended: the same map.
+  std::vector<Frame> dirty = frames;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (Frame& f : dirty) {
+    const Eigen::Isometry3f inv = f.T.inverse();
+    f.points.emplace_back(nan, 0.0f, 1.0f);
+    f.points.emplace_back(0.0f, inf, 1.0f);
+    f.points.emplace_back(-inf, nan, inf);
+    for (int i = 0; i < 20; ++i)
+      f.points.push_back(inv * Eigen::Vector3f(0.1f * i, 7.0f, 1.0f));
+  }
+  SafetyMapper m;
+  for (const Frame& f : dirty) {
+    FrameResult r;
+    ASSERT_TRUE(m.integrateFrame(f.points, f.T, f.robot, &r));
+    EXPECT_EQ(r.integration.points_non_finite, 3u);
+    EXPECT_GT(r.integration.points_outside_grid, 0u);
+  }
+  EXPECT_EQ(m.safetyMap().labels, reference->safetyMap().labels);
+  EXPECT_EQ(m.safetyMap().column_height, reference->safetyMap().column_height);
+
+  // Frames that must be rejected whole.
+  const std::vector<SafetyLabel> before = m.safetyMap().labels;
+  const std::uint32_t count = m.grid().frameCount();
+  const Frame& last = frames.back();
+  FrameResult r;
+  EXPECT_FALSE(m.integrateFrame({}, last.T, last.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kEmptyInput);
+
+  Eigen::Isometry3f far = last.T;
+  far.translation() = Eigen::Vector3f(0.0f, 0.0f, 50.0f);  // above the 3 m window
+  EXPECT_FALSE(m.integrateFrame(last.points, far, last.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kCameraOutsideGrid);
+
+  Eigen::Isometry3f bad = last.T;
+  bad.translation().x() = nan;
+  EXPECT_FALSE(m.integrateFrame(last.points, bad, last.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kInvalidPose);
+  bad = last.T;
+  bad.linear() *= 2.0f;  // not rigid
+  EXPECT_FALSE(m.integrateFrame(last.points, bad, last.robot, &r));
+  EXPECT_EQ(r.status, FrameStatus::kInvalidPose);
+
+  EXPECT_FALSE(m.integrateFrame(last.points, movedPose(last.T), Eigen::Vector3f(0, inf, 0), &r));
+  EXPECT_EQ(r.status, FrameStatus::kInvalidRobotPosition);
+
+  std::vector<Eigen::Vector3f> all_nan(100, Eigen::Vector3f(nan, nan, nan));
+  EXPECT_FALSE(m.integrateFrame(all_nan, last.T, last.robot, &r));  // stationary as well
+  EXPECT_EQ(m.grid().frameCount(), count);
+  EXPECT_EQ(m.safetyMap().labels, before);
+  EXPECT_FALSE(m.integrateFrame(last.points, last.T, last.robot, nullptr));  // no crash
+
+  // A frame of NaN points from a new pose is integrated and changes nothing.
+  ASSERT_TRUE(m.integrateFrame(all_nan, movedPose(last.T), last.robot, &r));
+  EXPECT_EQ(r.integration.points_non_finite, 100u);
+  EXPECT_EQ(m.safetyMap().labels, before);
+
+  // A non-finite robot position for the map alone: nothing is labelled.
+  const SafetyMap& empty = m.computeSafetyMap(Eigen::Vector3f(nan, 0, 0));
+  EXPECT_TRUE(empty.segments.empty());
+  for (auto l : empty.labels)
+    EXPECT_EQ(l, L::kUnknown);
+  EXPECT_EQ(m.computeSafetyMap(last.robot).labels, before);
+}
+
+TEST(SafetyMapper, GridScrollsWithTheRobot) {
+  World w;
+  Rig rig;
+  rig.step = 0.1;  // 2.3 m in 24 frames
+  const auto frames = drive(w, rig, 2.0);
+  const auto scrolling = run(frames);
+  const SafetyMap& m = scrolling->safetyMap();
+  EXPECT_EQ(m.robot_u, 20);
+  EXPECT_EQ(m.min_u, 20 - 50);
+  EXPECT_EQ(scrolling->grid().minIndex().u, 20 - 50);
+  EXPECT_EQ(labelAt(m, 5.0, 0.0), L::kLevel) << ascii(m, 1.5, 6.1);
+
+  SafetyMapperConfig fixed;
+  fixed.scroll_with_robot = false;
+  const auto still = run(frames, fixed);
+  const SafetyMap& n = still->safetyMap();
+  EXPECT_EQ(n.min_u, -3 - 50);  // placed by the first frame at x = -0.3
+  EXPECT_EQ(n.robot_u, 20);
+  EXPECT_EQ(labelAt(n, 1.5, 0.0), L::kLevel) << ascii(n, -0.5, 2.0);
+  EXPECT_FALSE(n.inside(cellOf(5.0), 0));
+}
+
+}  // namespace
+}  // namespace stereo_safety_map
