@@ -41,10 +41,12 @@ std::vector<std::string> rosIncludesIn(const fs::path& dir) {
 TEST(NoRosInCore, CoreHeadersAndSourcesIncludeNoRosHeader) {
   const fs::path root(SSM_SOURCE_DIR);
   ASSERT_TRUE(fs::exists(root / "src" / "core")) << root;
-  std::vector<std::string> offenders = rosIncludesIn(root / "include" / "stereo_safety_map" / "core");
+  std::vector<std::string> offenders =
+      rosIncludesIn(root / "include" / "stereo_safety_map" / "core");
   const auto more = rosIncludesIn(root / "src" / "core");
   offenders.insert(offenders.end(), more.begin(), more.end());
-  for (const auto& o : offenders) ADD_FAILURE() << "ROS header in the core: " << o;
+  for (const auto& o : offenders)
+    ADD_FAILURE() << "ROS header in the core: " << o;
 }
 
 TEST(NoRosInCore, CheckerCatchesARosInclude) {

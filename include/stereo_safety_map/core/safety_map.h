@@ -19,18 +19,20 @@ enum class SafetyLabel : std::uint8_t {
   kNonGround = 4,   ///< obstacle, overhang below robot height, too steep, or unreachable
 };
 
-inline bool isSafe(SafetyLabel l) { return l == SafetyLabel::kLevel || l == SafetyLabel::kInclined; }
+inline bool isSafe(SafetyLabel l) {
+  return l == SafetyLabel::kLevel || l == SafetyLabel::kInclined;
+}
 const char* toString(SafetyLabel l);
 
 /// A least-squares plane z = a x + b y + c fitted to one ground segment (000 Sec. V-B).
 struct GroundPlane {
-  bool valid = false;       ///< false when the segment had too few / degenerate points
-  double a = 0.0;           ///< p_s1
-  double b = 0.0;           ///< p_s2
-  double c = 0.0;           ///< p_s3
+  bool valid = false;  ///< false when the segment had too few / degenerate points
+  double a = 0.0;      ///< p_s1
+  double b = 0.0;      ///< p_s2
+  double c = 0.0;      ///< p_s3
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, pointing up
-  double slope_deg = 0.0;   ///< angle between the normal and the vertical
-  double residual_rms = 0.0;  ///< RMS of z residuals [m]
+  double slope_deg = 0.0;                             ///< angle between the normal and the vertical
+  double residual_rms = 0.0;                          ///< RMS of z residuals [m]
   std::size_t num_points = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< of the fitted points
 
@@ -40,24 +42,24 @@ struct GroundPlane {
 /// One ground segment of Alg. 1 and its label from Alg. 2.
 struct SegmentInfo {
   int id = -1;
-  int indexed_height = 0;         ///< w of the segment's columns
-  std::vector<int> cells;         ///< cell indices (row-major in the map, see SafetyMap)
-  int num_interior = 0;           ///< 8-neighbourhood interior cells (000 Sec. VI)
+  int indexed_height = 0;  ///< w of the segment's columns
+  std::vector<int> cells;  ///< cell indices (row-major in the map, see SafetyMap)
+  int num_interior = 0;    ///< 8-neighbourhood interior cells (000 Sec. VI)
   int num_boundary = 0;
   GroundPlane plane;
   SafetyLabel label = SafetyLabel::kUnexamined;
-  bool reachable = false;         ///< reached from the robot's segment in Alg. 2
+  bool reachable = false;  ///< reached from the robot's segment in Alg. 2
 };
 
-/// The result of one labelling pass. Cells are row-major: index = (v - min_v) * width + (u - min_u),
-/// cell (u, v) centred at (u * l_v, v * l_v) in the fixed frame (Eq. (1)).
+/// The result of one labelling pass. Cells are row-major: index = (v - min_v) * width + (u -
+/// min_u), cell (u, v) centred at (u * l_v, v * l_v) in the fixed frame (Eq. (1)).
 struct SafetyMap {
   int min_u = 0;
   int min_v = 0;
-  int width = 0;    ///< cells along u (x)
-  int height = 0;   ///< cells along v (y)
+  int width = 0;            ///< cells along u (x)
+  int height = 0;           ///< cells along v (y)
   double resolution = 0.1;  ///< l_v [m]
-  int robot_u = 0;  ///< robot's cell
+  int robot_u = 0;          ///< robot's cell
   int robot_v = 0;
   int robot_segment = -1;  ///< segment the robot stands on, -1 when none was found
 

@@ -12,9 +12,9 @@ namespace stereo_safety_map {
 
 /// Rectified stereo pair, left camera optical frame (x right, y down, z forward).
 struct StereoCameraModel {
-  double fx = 0.0;        ///< focal length [px]
-  double fy = 0.0;        ///< focal length [px]
-  double cx = 0.0;        ///< principal point of the left camera [px]
+  double fx = 0.0;  ///< focal length [px]
+  double fy = 0.0;  ///< focal length [px]
+  double cx = 0.0;  ///< principal point of the left camera [px]
   double cy = 0.0;
   double cx_right = 0.0;  ///< principal point x of the right camera (usually == cx) [px]
   double baseline = 0.0;  ///< [m], positive

@@ -1,0 +1,140 @@
+// Conversions between ROS messages and the ROS-free core (include/stereo_safety_map/core/).
+//
+// Inputs are validated here: every function that reads a message returns an empty string on
+// success and otherwise a one-line reason naming the offending field, and never throws, so that a
+// bad message is counted and skipped by the caller instead of crashing the nodelet.
+#pragma once
+
+#include "stereo_safety_map/core/safety_map.h"
+#include "stereo_safety_map/core/safety_mapper.h"
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/voxel_grid.h"
+#include "stereo_safety_map/ros/msgs.h"
+
+#include <nav_msgs/OccupancyGrid.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Header.h>
+#include <stereo_msgs/DisparityImage.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+// ---------------------------------------------------------------------------------------------
+// Safety label -> nav_msgs/OccupancyGrid value: the one translation table.
+//
+//   label / annotation             value        meaning for a planner
+//   Level                          0            free
+//   Inclined                       10 .. 50     free with a cost growing linearly with the plane's
+//                                               slope from theta_T (10) to theta_max (50)
+//   potential drop-off edge        90           "requires further observation" (000 Sec. VI):
+//                                               high cost, not lethal; overrides Level / Inclined
+//   Non-ground                     100          lethal (obstacle, too steep, unreachable)
+//   Unknown                        -1           no information
+//   Unexamined (beyond R_max)      -1           no information
+//
+// With move_base's costmap_2d static layer: keep lethal_cost_threshold at 100 and
+// unknown_cost_value at -1; set trinary_costmap: false to keep the graded Inclined and drop-off
+// costs (with the default trinary_costmap: true every value in 0..99 becomes free space).
+
+/// One row of the translation table. Inclined cells interpolate between cost and cost_max.
+struct LabelCost {
+  SafetyLabel label;
+  std::int8_t cost;      ///< value at the lowest slope of the label
+  std::int8_t cost_max;  ///< value at the highest slope (== cost for all but Inclined)
+};
+
+/// Indexed by the label's value (SafetyLabel is 0..4).
+constexpr LabelCost kLabelCostTable[] = {
+    {SafetyLabel::kUnexamined, -1, -1},  {SafetyLabel::kUnknown, -1, -1},
+    {SafetyLabel::kLevel, 0, 0},         {SafetyLabel::kInclined, 10, 50},
+    {SafetyLabel::kNonGround, 100, 100},
+};
+constexpr std::int8_t kDropOffCost = 90;  ///< potential drop-off edge cells
+
+/// OccupancyGrid value of a cell through kLabelCostTable. `slope_deg` is the slope of the cell's
+/// plane (used by Inclined), `level_slope_deg` / `max_slope_deg` are theta_T / theta_max.
+std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
+                       double max_slope_deg);
+
+// ---------------------------------------------------------------------------------------------
+// Inputs
+
+/// Rectified stereo geometry from the left / right CameraInfo pair through
+/// image_geometry::StereoCameraModel (binning and ROI applied: the model describes the images as
+/// published). Refuses zero or non-finite focal length, zero baseline, empty images.
+std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
+                                      const sensor_msgs::CameraInfo& right,
+                                      StereoCameraModel* model);
+
+/// Geometry for a stereo_msgs/DisparityImage: its own f and T (the message's disparities already
+/// have the principal point offset removed, Z = f T / d, so cx_right = cx), the principal point
+/// and fy from the left CameraInfo (through image_geometry::PinholeCameraModel). Refuses zero or
+/// non-finite f, T, fy, and an image whose size differs from the CameraInfo's.
+std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity,
+                                    const sensor_msgs::CameraInfo& left_info,
+                                    StereoCameraModel* model);
+
+struct DisparityImageStats {
+  std::size_t pixels = 0;
+  std::size_t non_finite = 0;    ///< NaN / inf pixels (treated as invalid)
+  std::size_t out_of_range = 0;  ///< outside [min_disparity, max_disparity] (invalid marker)
+};
+
+/// Copies the disparity image into `out` (CV_32FC1, reused), checking encoding (32FC1), byte
+/// order, step and data size. Pixels that are not finite or lie outside the message's
+/// [min_disparity, max_disparity] (when max > min; stereo_image_proc marks invalid pixels with
+/// min_disparity - 1) are set to 0, which the core treats as invalid.
+std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
+                                DisparityImageStats* stats = nullptr);
+
+struct CloudStats {
+  std::size_t points = 0;
+  std::size_t non_finite = 0;  ///< NaN / inf points, dropped
+};
+
+/// x, y, z of every finite point (sensor frame), through sensor_msgs::PointCloud2ConstIterator,
+/// after checking the fields (x, y, z present, FLOAT32, count 1, inside point_step), byte order,
+/// point_step / row_step and data size. `points` is reused (cleared, not shrunk).
+std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
+                                std::vector<Eigen::Vector3f>* points, CloudStats* stats = nullptr);
+
+// ---------------------------------------------------------------------------------------------
+// Outputs. `header.frame_id` is the fixed frame the core works in.
+
+/// Grid geometry shared by the OccupancyGrid and SafetyMap.msg: cell (u, v) centred at
+/// (u l_v, v l_v), so the origin is the corner of cell (min_u, min_v).
+nav_msgs::MapMetaData mapMetaData(const SafetyMap& map, const ros::Time& load_time);
+
+/// Costs through kLabelCostTable. `labelling` gives theta_T / theta_max for Inclined.
+void toOccupancyGrid(const SafetyMap& map, const SafetyLabellingConfig& labelling,
+                     const std_msgs::Header& header, nav_msgs::OccupancyGrid* out);
+
+/// Labels, drop-off edges, segments with their planes.
+void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,
+                    const std_msgs::Header& header, SafetyMapMsg* out);
+
+/// The hybrid 3D model of paper 000 Fig. 4(b): per ground segment a TRIANGLE_LIST of its cells
+/// lifted onto its plane (Level green, Inclined yellow, Non-ground ground segments - unreachable
+/// or too steep - red; Unknown segments are not drawn), the slope of every drawn segment as text,
+/// and the occupied voxels under Non-ground cells (up to the robot's height) as grey cubes. The
+/// first marker is a DELETEALL so that segments that disappeared are removed.
+void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
+                   visualization_msgs::MarkerArray* out);
+
+/// The point lists of all occupied voxels (000 Sec. IV: the 3D point cloud of the model).
+void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header,
+                           sensor_msgs::PointCloud2* out);
+
+/// Per-stage timings and counters.
+void toStageTimingsMsg(const StageTimings& timings, const std_msgs::Header& header,
+                       StageTimingsMsg* out);
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,59 @@
+// Validated loading of the disparity nodelet's parameters (stereo_safety_map/DisparityNodelet)
+// from its private namespace, after voxblox's ros_params.h: validate as you read.
+//
+// The core's DisparityPipelineConfig nests one struct per filter (texture.window_size, ...);
+// the parameters are flat (texture_window_size, ...) because dynamic_reconfigure
+// (cfg/Disparity.cfg) shares the names and cannot nest. kDisparityParameterNames below is the one
+// translation between the two; validation messages name the parameter as it is set.
+//
+// Every function returns an empty string when the values are valid, and otherwise one message
+// naming the parameter, its value and the allowed range. Wrong types are refused (an integer
+// parameter given as 2.5 or a string), not truncated; absent parameters keep the defaults.
+#pragma once
+
+#include "stereo_safety_map/core/disparity_pipeline.h"
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace stereo_safety_map {
+
+/// Settings of the disparity nodelet that are not the core pipeline's.
+struct DisparityRosConfig {
+  int queue_size = 5;             ///< subscriber and synchronizer queue [messages], [1, 1000]
+  bool approximate_sync = false;  ///< approximate instead of exact image / CameraInfo sync
+  double cloud_max_depth = 10.0;  ///< points2: farther points are NaN [m], (0, 1000]
+
+  std::string validate() const;
+};
+
+/// "bm" / "sgbm" <-> StereoMatcherType.
+const char* matcherName(StereoMatcherType type);
+bool matcherFromName(const std::string& name, StereoMatcherType* type);
+
+/// Reads the pipeline parameters (matcher, window sizes, each filter's switch and settings) and
+/// checks them: every parameter against its range (also a disabled filter's, as
+/// dynamic_reconfigure clamps to the same ranges), then DisparityPipelineConfig::validate().
+/// texture_window_size = 0 (the default) makes the texture window follow block_size, as 002
+/// Sec. 2.2 measures the texture over the matching window.
+std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, DisparityRosConfig* config);
+
+/// Ranges of both configs (the ones cfg/Disparity.cfg uses) and the core's own checks, with the
+/// core's names translated to parameter names. `texture_window_param` is the parameter's value
+/// (0 = follows block_size).
+std::string validateDisparityParameters(const DisparityPipelineConfig& config,
+                                        int texture_window_param);
+
+/// Replaces the core's nested names in a validate() message (texture.window_size) with the
+/// parameter names (texture_window_size).
+std::string toParameterNames(const std::string& core_message);
+
+/// Every parameter name the disparity nodelet reads from its private namespace (for the
+/// unknown-parameter warning, params.h's unknownParameters()).
+std::vector<std::string> disparityParameterNames();
+
+}  // namespace stereo_safety_map

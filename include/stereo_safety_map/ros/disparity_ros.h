@@ -1,0 +1,164 @@
+// The disparity ROS class: rectified left / right images + CameraInfo in, through the core's
+// disparity stage (core/disparity_pipeline.h: OpenCV StereoBM / StereoSGBM and the post-filters
+// of papers 002 Sec. 2.2, 4.2 and 000 Sec. III), stereo_msgs/DisparityImage out. Wrapped by
+// src/nodelets/disparity_nodelet.cpp (stereo_safety_map/DisparityNodelet); a drop-in for
+// stereo_image_proc/disparity (same topic names and message conventions).
+//
+// Inputs follow stereo_image_proc's disparity nodelet: two image_transport::SubscriberFilter
+// (transport hints from the private node handle) and two CameraInfo subscribers, exact or
+// approximate sync (~approximate_sync, ~queue_size), subscribed lazily in connectCb() under
+// connect_mutex_ only while one of the outputs has a subscriber.
+//
+// Threading model. Sync callbacks run on the nodelet manager's thread pool and only put the four
+// message pointers into a one-slot queue. One worker thread owned by this class takes them and
+// runs the checks, the pipeline and the publishing; the pipeline and its buffers are used by that
+// thread only. A frame arriving while another waits replaces it and is counted as dropped (the
+// newest frame wins; latency stays one frame when the input is faster than the processing).
+// dynamic_reconfigure hands a new pipeline configuration over through pending_mutex_; the worker
+// applies it before its next frame, so a reconfiguration never waits for a frame. Counters live
+// under stats_mutex_. Publishers are thread-safe in roscpp.
+#pragma once
+
+#include "stereo_safety_map/core/disparity_pipeline.h"
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/disparity_params.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <stereo_safety_map/DisparityConfig.h>
+
+#include <opencv2/core.hpp>
+
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace stereo_safety_map {
+
+class DisparityRos {
+ public:
+  /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
+  /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
+  /// advertises / subscribes to nothing: see ok() / configError().
+  DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~DisparityRos();
+
+  DisparityRos(const DisparityRos&) = delete;
+  DisparityRos& operator=(const DisparityRos&) = delete;
+
+  bool ok() const { return config_error_.empty(); }
+  const std::string& configError() const { return config_error_; }
+
+ private:
+  using Image = sensor_msgs::Image;
+  using CameraInfo = sensor_msgs::CameraInfo;
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<Image, CameraInfo, Image, CameraInfo>;
+  using ApproximatePolicy =
+      message_filters::sync_policies::ApproximateTime<Image, CameraInfo, Image, CameraInfo>;
+
+  /// One synchronised input frame waiting for the worker.
+  struct Frame {
+    sensor_msgs::ImageConstPtr left_image;
+    sensor_msgs::CameraInfoConstPtr left_info;
+    sensor_msgs::ImageConstPtr right_image;
+    sensor_msgs::CameraInfoConstPtr right_info;
+  };
+
+  void connectCb();
+  void imageCb(const sensor_msgs::ImageConstPtr& left_image,
+               const sensor_msgs::CameraInfoConstPtr& left_info,
+               const sensor_msgs::ImageConstPtr& right_image,
+               const sensor_msgs::CameraInfoConstPtr& right_info);
+  void workerLoop();
+  void processFrame(const Frame& frame);
+  /// Grey view (or converted copy in `buffer`) of a rectified image; "" or why it is refused.
+  std::string toGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                     cv::Mat* grey) const;
+  void publishDisparity(const std_msgs::Header& header);
+  void publishCloud(const std_msgs::Header& header);
+  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
+  void reject(const std::string& reason, const std::string& detail);
+
+  void reconfigureCb(DisparityConfig& config, uint32_t level);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  std::string config_error_;
+  DisparityRosConfig ros_config_;
+  DisparityPipelineConfig pipeline_config_;  ///< accepted configuration (reconfigure thread)
+  int texture_window_param_ = 0;             ///< ~texture_window_size, 0 = block_size
+
+  // Inputs (subscribed lazily, under connect_mutex_).
+  std::mutex connect_mutex_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  image_transport::SubscriberFilter left_image_sub_;
+  image_transport::SubscriberFilter right_image_sub_;
+  message_filters::Subscriber<CameraInfo> left_info_sub_;
+  message_filters::Subscriber<CameraInfo> right_info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  bool subscribed_ = false;
+
+  // Outputs.
+  ros::Publisher disparity_pub_;
+  ros::Publisher cloud_pub_;
+  image_transport::Publisher debug_pub_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+  boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
+  std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
+
+  // One-slot queue between the sync callback and the worker.
+  std::mutex slot_mutex_;
+  std::condition_variable slot_cv_;
+  std::unique_ptr<Frame> slot_;
+  bool stop_ = false;
+  std::thread worker_;
+
+  // A configuration accepted by dynamic_reconfigure, waiting for the worker.
+  std::mutex pending_mutex_;
+  std::unique_ptr<DisparityPipelineConfig> pending_config_;
+
+  // Worker-only: the core and buffers reused from frame to frame.
+  DisparityPipeline pipeline_;
+  StereoCameraModel camera_;
+  cv::Mat left_buffer_, right_buffer_;
+  cv::Mat disparity_;
+  cv::Mat xyz_;
+
+  // Counters and diagnostics (guarded by stats_mutex_).
+  std::mutex stats_mutex_;
+  std::uint64_t frames_received_ = 0;
+  std::uint64_t frames_processed_ = 0;
+  std::uint64_t frames_dropped_ = 0;
+  std::uint64_t frames_rejected_ = 0;
+  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
+  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
+  std::string last_problem_;
+  ros::WallTime last_problem_time_;
+  DisparityStats last_stats_;
+  std::string matcher_in_use_;
+  double processing_ms_sum_ = 0.0;
+  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
+  std::uint64_t window_processed_ = 0;
+  std::uint64_t window_dropped_ = 0;
+  ros::WallTime window_start_;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,30 @@
+// The package's own messages, included for code that also sees the core.
+//
+// catkin generates message classes in the package's namespace, so the messages SafetyMap.msg and
+// StageTimings.msg become stereo_safety_map::SafetyMap and stereo_safety_map::StageTimings: the
+// same names as the core's result structs (core/safety_map.h, core/safety_mapper.h). A
+// translation unit that includes both fails to compile. Include the messages through this header
+// only: it renames the two message typedefs to SafetyMapMsg and StageTimingsMsg (the templates
+// SafetyMap_<A> / StageTimings_<A>, the Ptr / ConstPtr typedefs, the message traits and the type
+// strings "stereo_safety_map/SafetyMap" are untouched, so the wire types do not change).
+#pragma once
+
+#ifdef STEREO_SAFETY_MAP_MESSAGE_SAFETYMAP_H
+#error "include stereo_safety_map/ros/msgs.h instead of stereo_safety_map/SafetyMap.h"
+#endif
+
+// The messages' own dependencies first, so that the renaming below reaches nothing but the two
+// message headers.
+#include <geometry_msgs/Point.h>
+#include <geometry_msgs/Vector3.h>
+#include <nav_msgs/MapMetaData.h>
+#include <std_msgs/Header.h>
+#include <stereo_safety_map/GroundSegment.h>
+#include <stereo_safety_map/SaveMap.h>
+
+#define SafetyMap SafetyMapMsg
+#define StageTimings StageTimingsMsg
+#include <stereo_safety_map/SafetyMap.h>
+#include <stereo_safety_map/StageTimings.h>
+#undef SafetyMap
+#undef StageTimings

@@ -1,0 +1,59 @@
+// Validated loading of the core configs and of the nodelet's own settings from the parameter
+// server (after voxblox's ros_params.h: validate as you read).
+//
+// Parameter names are the config structs' field names, flat in the nodelet's private namespace
+// (~decr, ~max_slope_deg, ...), so that the names in config/safety_map.yaml, in cfg/SafetyMap.cfg
+// and in the core's validate() messages are the same. A parameter that is absent keeps the
+// struct's default (the paper's value). Every function returns an empty string when the values
+// are valid and otherwise one message naming the parameter, its value and the allowed range
+// (wrong types too: an integer parameter given as 0.5 or a string is refused, not truncated).
+#pragma once
+
+#include "stereo_safety_map/core/ground_segmentation.h"
+#include "stereo_safety_map/core/height_map.h"
+#include "stereo_safety_map/core/plane_fit.h"
+#include "stereo_safety_map/core/safety_labelling.h"
+#include "stereo_safety_map/core/safety_mapper.h"
+#include "stereo_safety_map/core/voxel_grid.h"
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+std::string fromRosParam(const ros::NodeHandle& pnh, VoxelGridConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, HeightMapConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, GroundSegmentationConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, PlaneFitConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, SafetyLabellingConfig* config);
+/// All of the above plus the mapper's own fields (skip_stationary_frames, ...).
+std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* config);
+
+/// Settings of the safety-map nodelet that are not the core's.
+struct SafetyMapRosConfig {
+  std::string input = "disparity";       ///< "disparity" (DisparityImage + CameraInfo) or "cloud"
+  std::string fixed_frame = "odom";      ///< frame the map is built in (000 Sec. III)
+  std::string base_frame = "base_link";  ///< robot frame, origin on the ground under the robot
+  int queue_size = 5;                    ///< subscriber / tf filter / sync queue [messages]
+  bool approximate_sync = false;  ///< approximate instead of exact DisparityImage-CameraInfo sync
+  double max_rate = 0.0;          ///< most frames processed per second [Hz]; 0 = every frame
+  double tf_timeout = 0.1;        ///< wait for the base frame's transform [s]
+  int disparity_step = 1;         ///< use every n-th pixel in rows and columns
+  double time_jump_reset = 1.0;   ///< stamps going back by more than this reset the map [s]
+  std::string save_prefix = "/tmp/stereo_safety_map/map";  ///< ~save without a path_prefix
+
+  /// Empty when valid, otherwise a message naming the parameter and its range.
+  std::string validate() const;
+};
+std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* config);
+
+/// Every parameter name the safety-map nodelet reads from its private namespace.
+std::vector<std::string> safetyMapParameterNames();
+
+/// Parameters set in pnh's namespace (first level) that are not in `known`: likely typos.
+std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,
+                                           const std::vector<std::string>& known);
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,193 @@
+// The safety-map ROS class: translates stereo data and tf into calls of the core pipeline
+// (core/safety_mapper.h, paper 000 Sec. IV-VI) and its results into messages. Wrapped by
+// src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet).
+//
+// Threading model. Message callbacks run on the nodelet manager's thread pool; they only put the
+// frame (the message pointers) into a one-slot queue, so they never wait for the pipeline. One
+// worker thread owned by this class takes frames from the slot and runs conversion, the core and
+// publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
+// replaced and counted as dropped: the newest frame wins, processing latency stays one frame, and
+// max_rate throttles by letting the slot be overwritten. A worker (rather than processing in the
+// callback) keeps the tf2 MessageFilter and the sync running on time while a frame is processed,
+// and lets drops be counted in one place. The core (SafetyMapper) and everything derived from it
+// are guarded by core_mutex_, which the worker holds for a frame and ~reset, ~save and
+// dynamic_reconfigure take as well. The slot has its own mutex, held only for a swap. Publishers
+// are thread-safe in roscpp.
+#pragma once
+
+#include "stereo_safety_map/core/safety_mapper.h"
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/params.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_srvs/Empty.h>
+#include <stereo_msgs/DisparityImage.h>
+#include <stereo_safety_map/SafetyMapConfig.h>
+#include <stereo_safety_map/SaveMap.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace stereo_safety_map {
+
+class SafetyMapRos {
+ public:
+  /// Reads and validates the parameters in `pnh`. With an invalid configuration the object
+  /// logs the error (naming the parameter and its range), publishes it as an ERROR diagnostic
+  /// and subscribes to nothing: see ok() / configError().
+  SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~SafetyMapRos();
+
+  SafetyMapRos(const SafetyMapRos&) = delete;
+  SafetyMapRos& operator=(const SafetyMapRos&) = delete;
+
+  bool ok() const { return config_error_.empty(); }
+  const std::string& configError() const { return config_error_; }
+
+ private:
+  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
+  using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
+                                                sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
+      stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using Clock = std::chrono::steady_clock;
+
+  /// One input frame waiting for the worker.
+  struct Frame {
+    std_msgs::Header header;
+    stereo_msgs::DisparityImageConstPtr disparity;
+    sensor_msgs::CameraInfoConstPtr left_info;
+    sensor_msgs::CameraInfoConstPtr right_info;
+    sensor_msgs::PointCloud2ConstPtr cloud;
+    double tf_wait_ms = 0.0;  ///< from arrival to the transform being available
+  };
+
+  void setUpInputs();
+  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
+                   const sensor_msgs::CameraInfoConstPtr& left,
+                   const sensor_msgs::CameraInfoConstPtr& right);
+  void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
+  void noteArrival(const std_msgs::Header& header);
+  double tfWaitMs(const std_msgs::Header& header);
+  void tfFailure(const std_msgs::Header& header,
+                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  void enqueue(std::unique_ptr<Frame> frame);
+
+  void workerLoop();
+  void processFrame(const Frame& frame);
+  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
+  void reject(const std::string& reason, const std::string& detail);
+  void publishOutputs(const std_msgs::Header& header, const Eigen::Vector3f& robot_position);
+
+  bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
+  bool saveSrv(SaveMap::Request& req, SaveMap::Response& res);
+  void reconfigureCb(SafetyMapConfig& config, uint32_t level);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  std::string config_error_;
+  SafetyMapRosConfig ros_config_;
+  SafetyMapperConfig mapper_config_;
+
+  // Inputs.
+  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<message_filters::Subscriber<stereo_msgs::DisparityImage>> disparity_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> left_info_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> right_info_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::PointCloud2>> cloud_sub_;
+  std::unique_ptr<DisparityFilter> disparity_filter_;
+  std::unique_ptr<CloudFilter> cloud_filter_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+
+  // Outputs.
+  ros::Publisher map_pub_;
+  ros::Publisher labels_pub_;
+  ros::Publisher markers_pub_;
+  ros::Publisher points_pub_;
+  ros::Publisher timings_pub_;
+  ros::ServiceServer reset_srv_;
+  ros::ServiceServer save_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+  std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
+  boost::recursive_mutex reconfigure_mutex_;
+
+  // One-slot queue between the callbacks and the worker.
+  std::mutex slot_mutex_;
+  std::condition_variable slot_cv_;
+  std::unique_ptr<Frame> slot_;
+  bool stop_ = false;
+  std::thread worker_;
+  std::atomic<double> max_rate_{0.0};
+
+  // Arrival times, to measure how long frames waited for tf (guarded by arrival_mutex_).
+  std::mutex arrival_mutex_;
+  std::deque<std::pair<ros::Time, Clock::time_point>> arrivals_;
+
+  // Worker-only buffers, reused from frame to frame.
+  std::vector<Eigen::Vector3f> points_;
+  cv::Mat disparity_;
+  StereoCameraModel camera_;
+  ros::Time last_stamp_;
+  double min_depth_ = 0.0;  ///< reprojection range: the grid's min_range / max_range
+  double max_depth_ = 0.0;
+
+  // The core (guarded by core_mutex_).
+  std::mutex core_mutex_;
+  std::unique_ptr<SafetyMapper> mapper_;
+  Eigen::Vector3f robot_position_ = Eigen::Vector3f::Zero();
+
+  // Counters and diagnostics (guarded by stats_mutex_).
+  std::mutex stats_mutex_;
+  std::uint64_t frames_received_ = 0;
+  std::uint64_t frames_processed_ = 0;
+  std::uint64_t frames_stationary_ = 0;
+  std::uint64_t frames_dropped_ = 0;
+  std::uint64_t frames_rejected_ = 0;
+  std::uint64_t tf_failures_ = 0;
+  std::uint64_t map_resets_ = 0;
+  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
+  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
+  std::uint64_t non_finite_values_ = 0;               ///< NaN / inf pixels or points skipped
+  std::string last_problem_;
+  ros::WallTime last_problem_time_;
+  double processing_ms_last_ = 0.0;
+  double processing_ms_sum_ = 0.0;
+  double tf_wait_ms_sum_ = 0.0;
+  std::uint64_t tf_wait_count_ = 0;
+  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
+  std::uint64_t window_processed_ = 0;
+  std::uint64_t window_dropped_ = 0;
+  ros::WallTime window_start_;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,503 @@
+#include "stereo_safety_map/ros/conversions.h"
+
+#include <image_geometry/pinhole_camera_model.h>
+#include <image_geometry/stereo_camera_model.h>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+namespace stereo_safety_map {
+
+namespace {
+
+template <typename T>
+std::string str(const T& v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+bool positiveFinite(double v) {
+  return std::isfinite(v) && v > 0.0;
+}
+
+// Checks the fields image_geometry divides by, before it does (it does not check them).
+std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which) {
+  const std::string name = std::string(which) + " CameraInfo";
+  if (info.width == 0 || info.height == 0) return name + " has an empty image size";
+  for (double p : info.P) {
+    if (!std::isfinite(p)) return name + " has a non-finite value in P";
+  }
+  if (!positiveFinite(info.P[0]) || !positiveFinite(info.P[5])) {
+    return name + " has zero focal length (P[0] = " + str(info.P[0]) +
+           ", P[5] = " + str(info.P[5]) + "); is the camera calibrated?";
+  }
+  return "";
+}
+
+}  // namespace
+
+std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
+                       double max_slope_deg) {
+  const auto index = static_cast<std::size_t>(label);
+  if (index >= sizeof(kLabelCostTable) / sizeof(kLabelCostTable[0])) return -1;
+  if (drop_off && isSafe(label)) return kDropOffCost;
+  const LabelCost& row = kLabelCostTable[index];
+  if (row.cost == row.cost_max) return row.cost;
+  // Inclined: linear in the slope between theta_T and theta_max.
+  double t = 0.0;
+  if (std::isfinite(slope_deg) && max_slope_deg > level_slope_deg) {
+    t = std::clamp((slope_deg - level_slope_deg) / (max_slope_deg - level_slope_deg), 0.0, 1.0);
+  }
+  return static_cast<std::int8_t>(std::lround(row.cost + t * (row.cost_max - row.cost)));
+}
+
+std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
+                                      const sensor_msgs::CameraInfo& right,
+                                      StereoCameraModel* model) {
+  std::string err = checkCameraInfo(left, "left");
+  if (err.empty()) err = checkCameraInfo(right, "right");
+  if (!err.empty()) return err;
+  if (!(right.P[3] < 0.0)) {
+    return "right CameraInfo has zero baseline (P[3] = Tx = -fx B = " + str(right.P[3]) +
+           ", must be < 0)";
+  }
+  if (left.width != right.width || left.height != right.height) {
+    return "left and right CameraInfo sizes differ (" + str(left.width) + "x" + str(left.height) +
+           " vs " + str(right.width) + "x" + str(right.height) + ")";
+  }
+  image_geometry::StereoCameraModel stereo;
+  try {
+    stereo.fromCameraInfo(left, right);
+  } catch (const std::exception& e) {
+    return std::string("image_geometry refused the CameraInfo pair: ") + e.what();
+  }
+  const cv::Size size = stereo.left().reducedResolution();
+  StereoCameraModel m;
+  m.fx = stereo.left().fx();
+  m.fy = stereo.left().fy();
+  m.cx = stereo.left().cx();
+  m.cy = stereo.left().cy();
+  m.cx_right = stereo.right().cx();
+  m.baseline = stereo.baseline();
+  m.width = size.width;
+  m.height = size.height;
+  err = m.validate();
+  if (!err.empty()) return "camera model from CameraInfo: " + err;
+  *model = m;
+  return "";
+}
+
+std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity,
+                                    const sensor_msgs::CameraInfo& left_info,
+                                    StereoCameraModel* model) {
+  if (!positiveFinite(disparity.f)) {
+    return "DisparityImage has zero or non-finite focal length f = " + str(disparity.f);
+  }
+  if (!positiveFinite(disparity.T)) {
+    return "DisparityImage has zero or non-finite baseline T = " + str(disparity.T);
+  }
+  std::string err = checkCameraInfo(left_info, "left");
+  if (!err.empty()) return err;
+  image_geometry::PinholeCameraModel left;
+  try {
+    left.fromCameraInfo(left_info);
+  } catch (const std::exception& e) {
+    return std::string("image_geometry refused the left CameraInfo: ") + e.what();
+  }
+  const cv::Size size = left.reducedResolution();
+  if (static_cast<int>(disparity.image.width) != size.width ||
+      static_cast<int>(disparity.image.height) != size.height) {
+    return "DisparityImage size " + str(disparity.image.width) + "x" + str(disparity.image.height) +
+           " does not match the left CameraInfo (" + str(size.width) + "x" + str(size.height) + ")";
+  }
+  StereoCameraModel m;
+  m.fx = disparity.f;
+  m.fy = left.fy() * disparity.f / left.fx();  // keeps the aspect ratio if f was rescaled
+  m.cx = left.cx();
+  m.cy = left.cy();
+  m.cx_right = m.cx;  // d in a DisparityImage already has the cx offset removed: Z = f T / d
+  m.baseline = disparity.T;
+  m.width = size.width;
+  m.height = size.height;
+  err = m.validate();
+  if (!err.empty()) return "camera model for the DisparityImage: " + err;
+  *model = m;
+  return "";
+}
+
+std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
+                                DisparityImageStats* stats) {
+  const sensor_msgs::Image& img = msg.image;
+  if (img.encoding != sensor_msgs::image_encodings::TYPE_32FC1) {
+    return "DisparityImage has unsupported encoding '" + img.encoding + "' (need 32FC1)";
+  }
+  if (img.width == 0 || img.height == 0) return "DisparityImage is empty";
+  if (img.is_bigendian) return "DisparityImage is big-endian (unsupported)";
+  const std::size_t row_bytes = static_cast<std::size_t>(img.width) * sizeof(float);
+  if (img.step < row_bytes || img.step % sizeof(float) != 0) {
+    return "DisparityImage step " + str(img.step) + " does not fit width " + str(img.width) +
+           " x 4 bytes";
+  }
+  const std::size_t needed = static_cast<std::size_t>(img.step) * (img.height - 1) + row_bytes;
+  if (img.data.size() < needed) {
+    return "DisparityImage data has " + str(img.data.size()) + " bytes, " + str(needed) +
+           " needed for " + str(img.width) + "x" + str(img.height) + " with step " + str(img.step);
+  }
+  const float lo = msg.min_disparity;
+  const float hi = msg.max_disparity;
+  const bool use_range = std::isfinite(lo) && std::isfinite(hi) && hi > lo;
+  out->create(static_cast<int>(img.height), static_cast<int>(img.width), CV_32FC1);
+  DisparityImageStats s;
+  s.pixels = static_cast<std::size_t>(img.width) * img.height;
+  for (int r = 0; r < out->rows; ++r) {
+    const std::uint8_t* src = img.data.data() + static_cast<std::size_t>(r) * img.step;
+    float* dst = out->ptr<float>(r);
+    std::memcpy(dst, src, row_bytes);  // the data need not be aligned for float
+    for (int c = 0; c < out->cols; ++c) {
+      if (!std::isfinite(dst[c])) {
+        ++s.non_finite;
+        dst[c] = 0.0f;
+      } else if (use_range && (dst[c] < lo || dst[c] > hi)) {
+        ++s.out_of_range;
+        dst[c] = 0.0f;
+      }
+    }
+  }
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
+                                std::vector<Eigen::Vector3f>* points, CloudStats* stats) {
+  points->clear();
+  if (msg.is_bigendian) return "PointCloud2 is big-endian (unsupported)";
+  const char* names[3] = {"x", "y", "z"};
+  for (const char* name : names) {
+    const auto it =
+        std::find_if(msg.fields.begin(), msg.fields.end(),
+                     [name](const sensor_msgs::PointField& f) { return f.name == name; });
+    if (it == msg.fields.end()) return std::string("PointCloud2 has no field '") + name + "'";
+    if (it->datatype != sensor_msgs::PointField::FLOAT32 || it->count != 1) {
+      return std::string("PointCloud2 field '") + name + "' is not a single FLOAT32 (datatype " +
+             str(static_cast<int>(it->datatype)) + ", count " + str(it->count) + ")";
+    }
+    if (static_cast<std::size_t>(it->offset) + sizeof(float) > msg.point_step) {
+      return std::string("PointCloud2 field '") + name + "' at offset " + str(it->offset) +
+             " lies outside point_step " + str(msg.point_step);
+    }
+  }
+  const std::size_t n = static_cast<std::size_t>(msg.width) * msg.height;
+  if (n == 0) return "PointCloud2 is empty";
+  if (static_cast<std::size_t>(msg.width) * msg.point_step > msg.row_step) {
+    return "PointCloud2 row_step " + str(msg.row_step) + " is smaller than width x point_step (" +
+           str(msg.width) + " x " + str(msg.point_step) + ")";
+  }
+  if (msg.data.size() < static_cast<std::size_t>(msg.row_step) * msg.height) {
+    return "PointCloud2 data has " + str(msg.data.size()) + " bytes, row_step x height = " +
+           str(static_cast<std::size_t>(msg.row_step) * msg.height) + " needed";
+  }
+  CloudStats s;
+  s.points = n;
+  points->reserve(n);
+  // The iterator walks point_step by point_step; rows with padding (row_step > width *
+  // point_step) are iterated row by row.
+  for (std::uint32_t r = 0; r < msg.height; ++r) {
+    const std::uint8_t* row = msg.data.data() + static_cast<std::size_t>(r) * msg.row_step;
+    if (msg.row_step == msg.width * msg.point_step) {
+      if (r > 0) break;  // dense: the iterator below covers every row at once
+      sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
+      for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z) {
+        const Eigen::Vector3f p(*x, *y, *z);
+        if (p.allFinite()) {
+          points->push_back(p);
+        } else {
+          ++s.non_finite;
+        }
+      }
+      break;
+    }
+    int ox = 0, oy = 0, oz = 0;
+    for (const auto& f : msg.fields) {
+      if (f.name == "x") ox = static_cast<int>(f.offset);
+      if (f.name == "y") oy = static_cast<int>(f.offset);
+      if (f.name == "z") oz = static_cast<int>(f.offset);
+    }
+    for (std::uint32_t c = 0; c < msg.width; ++c) {
+      const std::uint8_t* pt = row + static_cast<std::size_t>(c) * msg.point_step;
+      float xyz[3];
+      std::memcpy(&xyz[0], pt + ox, sizeof(float));
+      std::memcpy(&xyz[1], pt + oy, sizeof(float));
+      std::memcpy(&xyz[2], pt + oz, sizeof(float));
+      const Eigen::Vector3f p(xyz[0], xyz[1], xyz[2]);
+      if (p.allFinite()) {
+        points->push_back(p);
+      } else {
+        ++s.non_finite;
+      }
+    }
+  }
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+nav_msgs::MapMetaData mapMetaData(const SafetyMap& map, const ros::Time& load_time) {
+  nav_msgs::MapMetaData info;
+  info.map_load_time = load_time;
+  info.resolution = static_cast<float>(map.resolution);
+  info.width = static_cast<std::uint32_t>(std::max(map.width, 0));
+  info.height = static_cast<std::uint32_t>(std::max(map.height, 0));
+  info.origin.position.x = (map.min_u - 0.5) * map.resolution;
+  info.origin.position.y = (map.min_v - 0.5) * map.resolution;
+  info.origin.position.z = 0.0;
+  info.origin.orientation.w = 1.0;
+  return info;
+}
+
+void toOccupancyGrid(const SafetyMap& map, const SafetyLabellingConfig& labelling,
+                     const std_msgs::Header& header, nav_msgs::OccupancyGrid* out) {
+  out->header = header;
+  out->info = mapMetaData(map, header.stamp);
+  const std::size_t n = map.labels.size();
+  out->data.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int s = i < map.segment.size() ? map.segment[i] : -1;
+    const double slope = (s >= 0 && s < static_cast<int>(map.segments.size()))
+                             ? map.segments[s].plane.slope_deg
+                             : 0.0;
+    const bool drop = i < map.drop_off.size() && map.drop_off[i] != 0;
+    out->data[i] =
+        safetyCost(map.labels[i], drop, slope, labelling.level_slope_deg, labelling.max_slope_deg);
+  }
+}
+
+void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,
+                    const std_msgs::Header& header, SafetyMapMsg* out) {
+  out->header = header;
+  out->info = mapMetaData(map, header.stamp);
+  out->labels.resize(map.labels.size());
+  for (std::size_t i = 0; i < map.labels.size(); ++i) {
+    out->labels[i] = static_cast<std::uint8_t>(map.labels[i]);
+  }
+  out->drop_off = map.drop_off;
+  out->segment = map.segment;
+  out->segments.resize(map.segments.size());
+  for (std::size_t k = 0; k < map.segments.size(); ++k) {
+    const SegmentInfo& s = map.segments[k];
+    GroundSegment& g = out->segments[k];
+    g.id = s.id;
+    g.label = static_cast<std::uint8_t>(s.label);
+    g.reachable = s.reachable;
+    g.indexed_height = s.indexed_height;
+    g.plane_valid = s.plane.valid;
+    g.a = s.plane.a;
+    g.b = s.plane.b;
+    g.c = s.plane.c;
+    g.normal.x = s.plane.normal.x();
+    g.normal.y = s.plane.normal.y();
+    g.normal.z = s.plane.normal.z();
+    g.slope_deg = s.plane.slope_deg;
+    g.residual_rms = s.plane.residual_rms;
+    g.num_cells = static_cast<std::uint32_t>(s.cells.size());
+    g.num_interior_cells = static_cast<std::uint32_t>(std::max(s.num_interior, 0));
+    g.num_points = static_cast<std::uint32_t>(s.plane.num_points);
+    g.centroid.x = s.plane.centroid.x();
+    g.centroid.y = s.plane.centroid.y();
+    g.centroid.z = s.plane.centroid.z();
+  }
+  out->robot_position.x = robot_position.x();
+  out->robot_position.y = robot_position.y();
+  out->robot_position.z = robot_position.z();
+  out->robot_segment = map.robot_segment;
+}
+
+namespace {
+
+std_msgs::ColorRGBA rgba(float r, float g, float b, float a) {
+  std_msgs::ColorRGBA c;
+  c.r = r;
+  c.g = g;
+  c.b = b;
+  c.a = a;
+  return c;
+}
+
+geometry_msgs::Point point(double x, double y, double z) {
+  geometry_msgs::Point p;
+  p.x = x;
+  p.y = y;
+  p.z = z;
+  return p;
+}
+
+}  // namespace
+
+void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
+                   visualization_msgs::MarkerArray* out) {
+  out->markers.clear();
+  visualization_msgs::Marker clear;
+  clear.header = header;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  out->markers.push_back(clear);
+
+  const SafetyMap& map = mapper.safetyMap();
+  const VoxelGrid& grid = mapper.grid();
+  const double l = map.resolution;
+  if (map.width <= 0 || map.height <= 0) return;
+
+  // Fig. 4(b) colours: Level green, Inclined yellow, unreachable / too steep ground red.
+  const std_msgs::ColorRGBA kLevel = rgba(0.1f, 0.8f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kInclined = rgba(0.95f, 0.85f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kUnreachable = rgba(0.85f, 0.1f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kVoxel = rgba(0.55f, 0.55f, 0.55f, 0.9f);
+
+  for (const SegmentInfo& s : map.segments) {
+    const std_msgs::ColorRGBA* color = nullptr;
+    const char* name = "";
+    switch (s.label) {
+      case SafetyLabel::kLevel:
+        color = &kLevel;
+        name = "Level";
+        break;
+      case SafetyLabel::kInclined:
+        color = &kInclined;
+        name = "Inclined";
+        break;
+      case SafetyLabel::kNonGround:
+        color = &kUnreachable;
+        name = "Non-ground";
+        break;
+      default:
+        break;
+    }
+    if (color == nullptr || s.cells.empty()) continue;
+    visualization_msgs::Marker m;
+    m.header = header;
+    m.ns = "ground_planes";
+    m.id = s.id;
+    m.type = visualization_msgs::Marker::TRIANGLE_LIST;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = m.scale.y = m.scale.z = 1.0;
+    m.color = *color;
+    m.points.reserve(s.cells.size() * 6);
+    // A segment without a valid plane is drawn flat at its indexed height (Eq. (1)).
+    auto z_at = [&](double x, double y) {
+      return s.plane.valid ? s.plane.heightAt(x, y) : s.indexed_height * l;
+    };
+    for (int cell : s.cells) {
+      const int u = map.min_u + cell % map.width;
+      const int v = map.min_v + cell / map.width;
+      const double x0 = (u - 0.5) * l, x1 = (u + 0.5) * l;
+      const double y0 = (v - 0.5) * l, y1 = (v + 0.5) * l;
+      const geometry_msgs::Point p00 = point(x0, y0, z_at(x0, y0));
+      const geometry_msgs::Point p10 = point(x1, y0, z_at(x1, y0));
+      const geometry_msgs::Point p11 = point(x1, y1, z_at(x1, y1));
+      const geometry_msgs::Point p01 = point(x0, y1, z_at(x0, y1));
+      m.points.insert(m.points.end(), {p00, p10, p11, p00, p11, p01});
+    }
+    out->markers.push_back(m);
+
+    if (s.plane.valid) {
+      visualization_msgs::Marker t;
+      t.header = header;
+      t.ns = "slopes";
+      t.id = s.id;
+      t.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+      t.action = visualization_msgs::Marker::ADD;
+      t.pose.position =
+          point(s.plane.centroid.x(), s.plane.centroid.y(), s.plane.centroid.z() + 0.15);
+      t.pose.orientation.w = 1.0;
+      t.scale.z = 0.15;
+      t.color = rgba(1.0f, 1.0f, 1.0f, 1.0f);
+      char text[64];
+      std::snprintf(text, sizeof(text), "%s %.1f deg", name, s.plane.slope_deg);
+      t.text = text;
+      out->markers.push_back(t);
+    }
+  }
+
+  // Non-ground cells as the occupied voxels of their columns up to the robot's height.
+  visualization_msgs::Marker cubes;
+  cubes.header = header;
+  cubes.ns = "non_ground_voxels";
+  cubes.id = 0;
+  cubes.type = visualization_msgs::Marker::CUBE_LIST;
+  cubes.action = visualization_msgs::Marker::ADD;
+  cubes.pose.orientation.w = 1.0;
+  cubes.scale.x = cubes.scale.y = cubes.scale.z = l * 0.95;
+  cubes.color = kVoxel;
+  const VoxelIndex gmin = grid.minIndex();
+  const int w_top = std::min(gmin.w + grid.sizeW() - 1, mapper.heightMap().topIndex());
+  for (int v = map.min_v; v < map.min_v + map.height; ++v) {
+    for (int u = map.min_u; u < map.min_u + map.width; ++u) {
+      if (map.labelAt(u, v) != SafetyLabel::kNonGround) continue;
+      const int s = map.segment[map.index(u, v)];
+      if (s >= 0) continue;  // drawn as a (red) plane above
+      for (int w = gmin.w; w <= w_top; ++w) {
+        const VoxelIndex i{u, v, w};
+        if (grid.isOccupied(i)) {
+          const Eigen::Vector3f c = grid.centerOf(i);
+          cubes.points.push_back(point(c.x(), c.y(), c.z()));
+        }
+      }
+    }
+  }
+  if (!cubes.points.empty()) out->markers.push_back(cubes);
+}
+
+void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header,
+                           sensor_msgs::PointCloud2* out) {
+  out->header = header;
+  sensor_msgs::PointCloud2Modifier modifier(*out);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  const VoxelIndex gmin = grid.minIndex();
+  std::size_t count = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) modifier.resize(count);
+    sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
+    for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
+      for (int v = gmin.v; v < gmin.v + grid.sizeV(); ++v) {
+        for (int u = gmin.u; u < gmin.u + grid.sizeU(); ++u) {
+          const VoxelIndex i{u, v, w};
+          if (!grid.isOccupied(i)) continue;
+          const VoxelPointList list = grid.points(i);
+          if (pass == 0) {
+            count += list.size;
+            continue;
+          }
+          for (const VoxelPoint& p : list) {
+            *x = p.position.x();
+            *y = p.position.y();
+            *z = p.position.z();
+            ++x;
+            ++y;
+            ++z;
+          }
+        }
+      }
+    }
+  }
+  out->height = 1;
+  out->width = static_cast<std::uint32_t>(count);
+  out->row_step = out->width * out->point_step;
+  out->is_dense = true;
+}
+
+void toStageTimingsMsg(const StageTimings& timings, const std_msgs::Header& header,
+                       StageTimingsMsg* out) {
+  out->header = header;
+  out->integrate_ms = timings.integrate_ms;
+  out->height_map_ms = timings.height_map_ms;
+  out->segmentation_ms = timings.segmentation_ms;
+  out->plane_fit_ms = timings.plane_fit_ms;
+  out->labelling_ms = timings.labelling_ms;
+  out->total_ms = timings.total_ms;
+}
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,573 @@
+#include "stereo_safety_map/ros/disparity_ros.h"
+
+#include "stereo_safety_map/ros/conversions.h"
+#include "stereo_safety_map/ros/params.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <stereo_msgs/DisparityImage.h>
+
+#include <boost/bind/bind.hpp>
+#include <boost/make_shared.hpp>
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace stereo_safety_map {
+
+namespace {
+
+constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
+constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
+constexpr char kDroppedReason[] = "input faster than processing";
+
+std::string sizeString(unsigned width, unsigned height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
+
+/// Filter steps reported in /diagnostics, with the paper section they implement.
+struct StepLabel {
+  DisparityStep step;
+  const char* label;
+};
+constexpr StepLabel kFilterSteps[] = {
+    {DisparityStep::kUniqueness, "uniqueness (002 Sec. 2.2)"},
+    {DisparityStep::kTexture, "texture (002 Sec. 2.2)"},
+    {DisparityStep::kLeftRight, "left-right check"},
+    {DisparityStep::kNeighbourConsistency, "neighbour consistency (000 Sec. III)"},
+    {DisparityStep::kSpikeRemoval, "spike removal (002 Sec. 4.2)"},
+};
+
+}  // namespace
+
+DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
+  diagnostics_->setHardwareID("stereo camera");
+  diagnostics_->add("disparity", this, &DisparityRos::diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
+                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  window_start_ = ros::WallTime::now();
+
+  std::string err = fromRosParam(pnh_, &ros_config_);
+  if (err.empty()) err = fromRosParam(pnh_, &pipeline_config_);
+  if (!err.empty()) {
+    config_error_ = err;
+    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
+    diagnostics_->force_update();
+    return;
+  }
+  pnh_.param("texture_window_size", texture_window_param_, 0);  // an int: checked above
+  for (const std::string& p : unknownParameters(pnh_, disparityParameterNames())) {
+    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
+  }
+  pipeline_.setConfig(pipeline_config_);
+  matcher_in_use_ = matcherName(pipeline_config_.matcher);
+
+  // Synchronize the inputs; the topics are subscribed on demand in connectCb().
+  const int q = ros_config_.queue_size;
+  if (ros_config_.approximate_sync) {
+    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
+        ApproximatePolicy(q), left_image_sub_, left_info_sub_, right_image_sub_, right_info_sub_);
+    approximate_sync_->registerCallback(
+        boost::bind(&DisparityRos::imageCb, this, boost::placeholders::_1, boost::placeholders::_2,
+                    boost::placeholders::_3, boost::placeholders::_4));
+  } else {
+    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+        ExactPolicy(q), left_image_sub_, left_info_sub_, right_image_sub_, right_info_sub_);
+    exact_sync_->registerCallback(boost::bind(&DisparityRos::imageCb, this, boost::placeholders::_1,
+                                              boost::placeholders::_2, boost::placeholders::_3,
+                                              boost::placeholders::_4));
+  }
+
+  // The server reads the (already validated) start-up values from the parameter server and calls
+  // reconfigureCb once with them.
+  reconfigure_ =
+      std::make_unique<dynamic_reconfigure::Server<DisparityConfig>>(reconfigure_mutex_, pnh_);
+  reconfigure_->setCallback(boost::bind(&DisparityRos::reconfigureCb, this, boost::placeholders::_1,
+                                        boost::placeholders::_2));
+
+  worker_ = std::thread(&DisparityRos::workerLoop, this);
+
+  // Monitor whether anyone listens; connectCb must not run between advertising and assigning
+  // the publishers.
+  it_ = std::make_unique<image_transport::ImageTransport>(nh_);
+  std::lock_guard<std::mutex> lock(connect_mutex_);
+  const ros::SubscriberStatusCallback connect_cb = [this](const ros::SingleSubscriberPublisher&) {
+    connectCb();
+  };
+  const image_transport::SubscriberStatusCallback image_connect_cb =
+      [this](const image_transport::SingleSubscriberPublisher&) { connectCb(); };
+  disparity_pub_ =
+      nh_.advertise<stereo_msgs::DisparityImage>("disparity", 1, connect_cb, connect_cb);
+  cloud_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("points2", 1, connect_cb, connect_cb);
+  debug_pub_ = it_->advertise("disparity_debug", 1, image_connect_cb, image_connect_cb);
+  ROS_INFO_STREAM(name_ << ": disparity with " << matcher_in_use_ << ", "
+                        << pipeline_config_.num_disparities << " disparities, block "
+                        << pipeline_config_.block_size << "; "
+                        << (ros_config_.approximate_sync ? "approximate" : "exact") << " sync");
+}
+
+DisparityRos::~DisparityRos() {
+  // Inputs first, so that no callback enqueues while the worker stops.
+  {
+    std::lock_guard<std::mutex> lock(connect_mutex_);
+    left_image_sub_.unsubscribe();
+    left_info_sub_.unsubscribe();
+    right_image_sub_.unsubscribe();
+    right_info_sub_.unsubscribe();
+    subscribed_ = false;
+  }
+  {
+    std::lock_guard<std::mutex> lock(slot_mutex_);
+    stop_ = true;
+  }
+  slot_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  diagnostics_timer_.stop();
+}
+
+void DisparityRos::connectCb() {
+  std::lock_guard<std::mutex> lock(connect_mutex_);
+  const bool listened = disparity_pub_.getNumSubscribers() > 0 ||
+                        cloud_pub_.getNumSubscribers() > 0 || debug_pub_.getNumSubscribers() > 0;
+  if (!listened && subscribed_) {
+    left_image_sub_.unsubscribe();
+    left_info_sub_.unsubscribe();
+    right_image_sub_.unsubscribe();
+    right_info_sub_.unsubscribe();
+    subscribed_ = false;
+  } else if (listened && !subscribed_) {
+    // The synchronizer's queue is the one that matters; the subscribers get the same size so
+    // that roscpp does not drop frames silently before the sync sees them.
+    const int q = ros_config_.queue_size;
+    const image_transport::TransportHints hints("raw", ros::TransportHints(), pnh_);
+    left_image_sub_.subscribe(*it_, "left/image_rect", q, hints);
+    left_info_sub_.subscribe(nh_, "left/camera_info", q);
+    right_image_sub_.subscribe(*it_, "right/image_rect", q, hints);
+    right_info_sub_.subscribe(nh_, "right/camera_info", q);
+    subscribed_ = true;
+  }
+}
+
+void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
+                           const sensor_msgs::CameraInfoConstPtr& left_info,
+                           const sensor_msgs::ImageConstPtr& right_image,
+                           const sensor_msgs::CameraInfoConstPtr& right_info) {
+  auto frame = std::make_unique<Frame>();
+  frame->left_image = left_image;
+  frame->left_info = left_info;
+  frame->right_image = right_image;
+  frame->right_info = right_info;
+  bool dropped = false;
+  {
+    std::lock_guard<std::mutex> lock(slot_mutex_);
+    if (stop_) return;
+    dropped = static_cast<bool>(slot_);
+    slot_ = std::move(frame);
+  }
+  slot_cv_.notify_one();
+
+  bool log = false;
+  std::uint64_t total_dropped = 0;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++frames_received_;
+    ++window_received_;
+    if (dropped) {
+      ++frames_dropped_;
+      ++window_dropped_;
+      total_dropped = frames_dropped_;
+      const ros::WallTime now = ros::WallTime::now();
+      ros::WallTime& last = last_logged_[kDroppedReason];
+      if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
+        last = now;
+        log = true;
+      }
+    }
+  }
+  if (log) {
+    ROS_WARN_STREAM(name_ << ": stereo frames arrive faster than the disparity is computed: the "
+                             "waiting frame was replaced by a newer one ("
+                          << total_dropped << " dropped so far; reduce the camera rate, "
+                          << "num_disparities or the image size, or use matcher bm)");
+  }
+}
+
+void DisparityRos::workerLoop() {
+  for (;;) {
+    std::unique_ptr<Frame> frame;
+    {
+      std::unique_lock<std::mutex> lock(slot_mutex_);
+      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
+      if (stop_) return;
+      frame = std::move(slot_);
+    }
+    try {
+      processFrame(*frame);
+    } catch (const std::exception& e) {
+      reject("exception", std::string("frame skipped after an exception: ") + e.what());
+    }
+  }
+}
+
+void DisparityRos::reject(const std::string& reason, const std::string& detail) {
+  const ros::WallTime now = ros::WallTime::now();
+  bool log = false;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++frames_rejected_;
+    ++rejections_[reason];
+    last_problem_ = detail;
+    last_problem_time_ = now;
+    ros::WallTime& last = last_logged_[reason];
+    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
+      last = now;
+      log = true;
+    }
+  }
+  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+}
+
+std::string DisparityRos::toGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                                 cv::Mat* grey) const {
+  namespace enc = sensor_msgs::image_encodings;
+  int channels = 0;
+  int code = -1;
+  if (msg.encoding == enc::MONO8 || msg.encoding == enc::TYPE_8UC1) {
+    channels = 1;
+  } else if (msg.encoding == enc::BGR8) {
+    channels = 3;
+    code = cv::COLOR_BGR2GRAY;
+  } else if (msg.encoding == enc::RGB8) {
+    channels = 3;
+    code = cv::COLOR_RGB2GRAY;
+  } else if (msg.encoding == enc::BGRA8) {
+    channels = 4;
+    code = cv::COLOR_BGRA2GRAY;
+  } else if (msg.encoding == enc::RGBA8) {
+    channels = 4;
+    code = cv::COLOR_RGBA2GRAY;
+  } else {
+    return std::string(which) + " image has unsupported encoding '" + msg.encoding +
+           "' (need an 8-bit rectified image: mono8, bgr8, rgb8, bgra8 or rgba8)";
+  }
+  if (msg.width == 0 || msg.height == 0) return std::string(which) + " image is empty";
+  const std::size_t row_bytes = static_cast<std::size_t>(msg.width) * channels;
+  if (msg.step < row_bytes) {
+    return std::string(which) + " image step " + std::to_string(msg.step) +
+           " is smaller than width x channels = " + std::to_string(row_bytes);
+  }
+  const std::size_t needed = static_cast<std::size_t>(msg.step) * (msg.height - 1) + row_bytes;
+  if (msg.data.size() < needed) {
+    return std::string(which) + " image data has " + std::to_string(msg.data.size()) + " bytes, " +
+           std::to_string(needed) + " needed for " + sizeString(msg.width, msg.height) + " " +
+           msg.encoding + " with step " + std::to_string(msg.step);
+  }
+  // A view onto the message (read only: the pipeline does not write its inputs).
+  const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), CV_8UC(channels),
+                     const_cast<std::uint8_t*>(msg.data.data()), msg.step);
+  if (channels == 1) {
+    *grey = view;
+  } else {
+    cv::cvtColor(view, *buffer, code);
+    *grey = *buffer;
+  }
+  return "";
+}
+
+void DisparityRos::processFrame(const Frame& frame) {
+  const auto t0 = std::chrono::steady_clock::now();
+
+  // A configuration from dynamic_reconfigure, and the debug image only while someone looks at
+  // it (it costs an extra matcher pass when the uniqueness test is on).
+  {
+    DisparityPipelineConfig config = pipeline_.config();
+    bool changed = false;
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      if (pending_config_) {
+        config = *pending_config_;
+        pending_config_.reset();
+        changed = true;
+      }
+    }
+    const bool debug = debug_pub_.getNumSubscribers() > 0;
+    if (changed || config.debug != debug) {
+      config.debug = debug;
+      pipeline_.setConfig(config);
+    }
+  }
+
+  const sensor_msgs::Image& left = *frame.left_image;
+  const sensor_msgs::Image& right = *frame.right_image;
+
+  // Geometry: zero / non-finite focal length or baseline, NaN in P, info sizes that differ.
+  std::string err = cameraModelFromCameraInfo(*frame.left_info, *frame.right_info, &camera_);
+  if (!err.empty()) {
+    reject("bad camera info", "dropped a stereo frame: " + err);
+    return;
+  }
+  if (left.width != right.width || left.height != right.height) {
+    reject("size mismatch", "dropped a stereo frame: left image " +
+                                sizeString(left.width, left.height) + " and right image " +
+                                sizeString(right.width, right.height) + " differ in size");
+    return;
+  }
+  if (static_cast<int>(left.width) != camera_.width ||
+      static_cast<int>(left.height) != camera_.height) {
+    reject("size mismatch", "dropped a stereo frame: images are " +
+                                sizeString(left.width, left.height) + " but the CameraInfo says " +
+                                sizeString(camera_.width, camera_.height) +
+                                " (binning / ROI applied); are the images rectified?");
+    return;
+  }
+  cv::Mat left_grey, right_grey;
+  err = toGrey(left, "left", &left_buffer_, &left_grey);
+  if (err.empty()) err = toGrey(right, "right", &right_buffer_, &right_grey);
+  if (!err.empty()) {
+    const bool encoding = err.find("encoding") != std::string::npos;
+    reject(encoding ? "unsupported encoding" : "bad image", "dropped a stereo frame: " + err);
+    return;
+  }
+
+  DisparityStats stats;
+  if (!pipeline_.compute(left_grey, right_grey, &disparity_, &stats, &err)) {
+    reject("disparity failed", "dropped a stereo frame: " + toParameterNames(err));
+    return;
+  }
+
+  std_msgs::Header header = left.header;
+  if (disparity_pub_.getNumSubscribers() > 0) publishDisparity(header);
+  if (cloud_pub_.getNumSubscribers() > 0) publishCloud(header);
+  if (debug_pub_.getNumSubscribers() > 0 && !pipeline_.debugImage().empty()) {
+    debug_pub_.publish(
+        cv_bridge::CvImage(header, sensor_msgs::image_encodings::BGR8, pipeline_.debugImage())
+            .toImageMsg());
+  }
+
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++frames_processed_;
+  ++window_processed_;
+  processing_ms_sum_ += ms;
+  last_stats_ = stats;
+  matcher_in_use_ = matcherName(pipeline_.config().matcher);
+}
+
+void DisparityRos::publishDisparity(const std_msgs::Header& header) {
+  const DisparityPipelineConfig& c = pipeline_.config();
+  auto msg = boost::make_shared<stereo_msgs::DisparityImage>();
+  msg->header = header;
+  msg->f = static_cast<float>(camera_.fx);
+  msg->T = static_cast<float>(camera_.baseline);
+  // DisparityImage's convention: d = x_l - x_r - (cx_l - cx_r), so Z = f T / d; anything below
+  // min_disparity is invalid (stereo_image_proc writes min_disparity - 1 there, as we do).
+  const float offset = static_cast<float>(camera_.cx - camera_.cx_right);
+  msg->min_disparity = static_cast<float>(c.min_disparity) - offset;
+  msg->max_disparity = static_cast<float>(c.min_disparity + c.num_disparities - 1) - offset;
+  msg->delta_d = 1.0f / 16.0f;  // OpenCV's matchers: 4 fractional bits
+  const float invalid = msg->min_disparity - 1.0f;
+
+  // The window where the matcher can find anything (as stereo_image_proc computes it).
+  const int border = c.block_size / 2;
+  const int left = std::min(c.min_disparity + c.num_disparities + border - 1, disparity_.cols);
+  const int right = std::max(disparity_.cols - 1 - border - c.min_disparity, left);
+  const int top = std::min(border, disparity_.rows);
+  const int bottom = std::max(disparity_.rows - 1 - border, top);
+  msg->valid_window.x_offset = static_cast<std::uint32_t>(left);
+  msg->valid_window.y_offset = static_cast<std::uint32_t>(top);
+  msg->valid_window.width = static_cast<std::uint32_t>(right - left);
+  msg->valid_window.height = static_cast<std::uint32_t>(bottom - top);
+
+  sensor_msgs::Image& image = msg->image;
+  image.header = header;
+  image.height = static_cast<std::uint32_t>(disparity_.rows);
+  image.width = static_cast<std::uint32_t>(disparity_.cols);
+  image.encoding = sensor_msgs::image_encodings::TYPE_32FC1;
+  image.is_bigendian = 0;
+  image.step = image.width * sizeof(float);
+  image.data.resize(static_cast<std::size_t>(image.step) * image.height);
+  for (int y = 0; y < disparity_.rows; ++y) {
+    const float* in = disparity_.ptr<float>(y);
+    // std::vector's storage is aligned for any fundamental type.
+    float* out =
+        reinterpret_cast<float*>(image.data.data() + static_cast<std::size_t>(y) * image.step);
+    for (int x = 0; x < disparity_.cols; ++x) {
+      const float d = in[x] - offset;
+      out[x] = isValidDisparity(in[x]) && d > 0.0f ? d : invalid;
+    }
+  }
+  disparity_pub_.publish(msg);
+}
+
+void DisparityRos::publishCloud(const std_msgs::Header& header) {
+  reprojectDisparityOrganized(disparity_, camera_, ros_config_.cloud_max_depth, &xyz_);
+  if (xyz_.empty()) return;
+  auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+  cloud->header = header;
+  sensor_msgs::PointCloud2Modifier modifier(*cloud);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  modifier.resize(static_cast<std::size_t>(xyz_.rows) * xyz_.cols);
+  cloud->height = static_cast<std::uint32_t>(xyz_.rows);  // organised: one point per pixel
+  cloud->width = static_cast<std::uint32_t>(xyz_.cols);
+  cloud->row_step = cloud->width * cloud->point_step;
+  cloud->is_dense = false;
+  sensor_msgs::PointCloud2Iterator<float> it(*cloud, "x");
+  for (int y = 0; y < xyz_.rows; ++y) {
+    const cv::Vec3f* row = xyz_.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < xyz_.cols; ++x, ++it) {
+      it[0] = row[x][0];
+      it[1] = row[x][1];
+      it[2] = row[x][2];
+    }
+  }
+  cloud_pub_.publish(cloud);
+}
+
+void DisparityRos::reconfigureCb(DisparityConfig& config, uint32_t /*level*/) {
+  // Make window sizes valid, as stereo_image_proc's disparity nodelet does.
+  config.block_size |= 1;
+  if (config.matcher == "bm" && config.block_size < 5) config.block_size = 5;
+  config.num_disparities = std::max(16, config.num_disparities / 16 * 16);
+  if (config.texture_window_size != 0) config.texture_window_size |= 1;
+
+  DisparityPipelineConfig c = pipeline_config_;
+  std::string err;
+  if (!matcherFromName(config.matcher, &c.matcher)) {
+    err = "matcher = '" + config.matcher + "' must be 'bm' or 'sgbm'";
+  }
+  c.min_disparity = config.min_disparity;
+  c.num_disparities = config.num_disparities;
+  c.block_size = config.block_size;
+  c.pre_filter_cap = config.pre_filter_cap;
+  c.bm_texture_threshold = config.bm_texture_threshold;
+  c.speckle_window_size = config.speckle_window_size;
+  c.speckle_range = config.speckle_range;
+  c.sgbm_p1 = config.sgbm_p1;
+  c.sgbm_p2 = config.sgbm_p2;
+  c.sgbm_three_way = config.sgbm_three_way;
+  c.enable_uniqueness = config.enable_uniqueness;
+  c.uniqueness.uniqueness_ratio = config.uniqueness_ratio;
+  c.enable_texture = config.enable_texture;
+  c.texture.log_sigma = config.texture_log_sigma;
+  c.texture.window_size =
+      config.texture_window_size == 0 ? config.block_size : config.texture_window_size;
+  c.texture.min_energy = config.texture_min_energy;
+  c.enable_left_right = config.enable_left_right;
+  c.left_right.max_difference = config.left_right_max_difference;
+  c.left_right.reject_if_right_invalid = config.left_right_reject_if_right_invalid;
+  c.enable_neighbour_consistency = config.enable_neighbour_consistency;
+  c.neighbour_consistency.window_radius = config.neighbour_window_radius;
+  c.neighbour_consistency.max_difference = config.neighbour_max_difference;
+  c.neighbour_consistency.min_agreeing_fraction = config.neighbour_min_agreeing_fraction;
+  c.neighbour_consistency.remove_isolated = config.neighbour_remove_isolated;
+  c.enable_spike_removal = config.enable_spike_removal;
+  c.spike_removal.max_difference = config.spike_max_difference;
+  c.spike_removal.min_region_size = config.spike_min_region_size;
+  if (err.empty()) err = validateDisparityParameters(c, config.texture_window_size);
+
+  if (!err.empty()) {
+    ROS_ERROR_STREAM(name_ << ": reconfiguration refused, keeping the previous values: " << err);
+    // Hand the current values back to the server (and so to rqt_reconfigure).
+    const DisparityPipelineConfig& o = pipeline_config_;
+    config.matcher = matcherName(o.matcher);
+    config.min_disparity = o.min_disparity;
+    config.num_disparities = o.num_disparities;
+    config.block_size = o.block_size;
+    config.pre_filter_cap = o.pre_filter_cap;
+    config.bm_texture_threshold = o.bm_texture_threshold;
+    config.speckle_window_size = o.speckle_window_size;
+    config.speckle_range = o.speckle_range;
+    config.sgbm_p1 = o.sgbm_p1;
+    config.sgbm_p2 = o.sgbm_p2;
+    config.sgbm_three_way = o.sgbm_three_way;
+    config.enable_uniqueness = o.enable_uniqueness;
+    config.uniqueness_ratio = o.uniqueness.uniqueness_ratio;
+    config.enable_texture = o.enable_texture;
+    config.texture_log_sigma = o.texture.log_sigma;
+    config.texture_window_size = texture_window_param_;
+    config.texture_min_energy = o.texture.min_energy;
+    config.enable_left_right = o.enable_left_right;
+    config.left_right_max_difference = o.left_right.max_difference;
+    config.left_right_reject_if_right_invalid = o.left_right.reject_if_right_invalid;
+    config.enable_neighbour_consistency = o.enable_neighbour_consistency;
+    config.neighbour_window_radius = o.neighbour_consistency.window_radius;
+    config.neighbour_max_difference = o.neighbour_consistency.max_difference;
+    config.neighbour_min_agreeing_fraction = o.neighbour_consistency.min_agreeing_fraction;
+    config.neighbour_remove_isolated = o.neighbour_consistency.remove_isolated;
+    config.enable_spike_removal = o.enable_spike_removal;
+    config.spike_max_difference = o.spike_removal.max_difference;
+    config.spike_min_region_size = o.spike_removal.min_region_size;
+    return;
+  }
+  pipeline_config_ = c;
+  texture_window_param_ = config.texture_window_size;
+  std::lock_guard<std::mutex> lock(pending_mutex_);
+  pending_config_ = std::make_unique<DisparityPipelineConfig>(c);
+}
+
+void DisparityRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  using diagnostic_msgs::DiagnosticStatus;
+  if (!config_error_.empty()) {
+    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
+    return;
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  stat.add("matcher", matcher_in_use_);
+  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
+  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
+  stat.add("frames received", frames_received_);
+  stat.add("frames processed", frames_processed_);
+  stat.add("frames dropped (input faster than processing)", frames_dropped_);
+  stat.add("frames rejected (bad input)", frames_rejected_);
+  stat.addf("processing time, mean [ms]", "%.1f",
+            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  if (frames_processed_ > 0) {
+    const DisparityStats& s = last_stats_;
+    stat.addf("valid pixels, last frame [%]", "%.1f",
+              s.pixels > 0 ? 100.0 * s.valid / s.pixels : 0.0);
+    stat.addf("disparity time, last frame [ms]", "%.1f", s.total_ms);
+    const DisparityStepStats& match = s.step(DisparityStep::kMatching);
+    stat.add("matched pixels, last frame", match.valid_after);
+    for (const StepLabel& f : kFilterSteps) {
+      const DisparityStepStats& st = s.step(f.step);
+      stat.add(std::string("removed by ") + f.label + ", last frame",
+               st.ran ? std::to_string(st.valid_before - st.valid_after) : std::string("off"));
+    }
+  }
+  for (const auto& r : rejections_)
+    stat.add("problem: " + r.first, r.second);
+  stat.add("last problem", last_problem_);
+
+  const bool recent_problem =
+      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
+  if (recent_problem) {
+    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  } else if (window_dropped_ > 0) {
+    stat.summaryf(DiagnosticStatus::WARN,
+                  "dropping frames: %llu of %llu in the last %.1f s (the input is faster than "
+                  "the disparity computation)",
+                  static_cast<unsigned long long>(window_dropped_),
+                  static_cast<unsigned long long>(window_received_), window);
+  } else if (frames_received_ == 0) {
+    stat.summary(DiagnosticStatus::OK, "waiting for input (subscribed while an output is)");
+  } else {
+    stat.summary(DiagnosticStatus::OK, "disparity up to date");
+  }
+  if (window >= 1.0) {
+    window_start_ = now;
+    window_received_ = window_processed_ = window_dropped_ = 0;
+  }
+}
+
+}  // namespace stereo_safety_map

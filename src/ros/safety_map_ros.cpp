@@ -1,0 +1,751 @@
+#include "stereo_safety_map/ros/safety_map_ros.h"
+
+#include "stereo_safety_map/ros/conversions.h"
+
+#include <nav_msgs/OccupancyGrid.h>
+#include <octomap/OcTree.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <visualization_msgs/MarkerArray.h>
+#include <boost/bind/bind.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace stereo_safety_map {
+
+namespace {
+
+constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
+constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
+constexpr std::size_t kMaxArrivals = 64;
+
+// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that a
+// reader never sees a half-written file.
+std::string writeFileAtomically(const std::string& path, const std::string& bytes) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) return "cannot open " + tmp + " for writing";
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    f.close();
+    if (!f) {
+      std::remove(tmp.c_str());
+      return "cannot write " + tmp;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return "cannot rename " + tmp + " to " + path;
+  }
+  return "";
+}
+
+}  // namespace
+
+SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
+  diagnostics_->setHardwareID("stereo camera");
+  diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
+                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  window_start_ = ros::WallTime::now();
+
+  std::string err = fromRosParam(pnh_, &ros_config_);
+  if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
+  if (!err.empty()) {
+    config_error_ = err;
+    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
+    diagnostics_->force_update();
+    return;
+  }
+  for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
+    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
+  }
+  mapper_ = std::make_unique<SafetyMapper>(mapper_config_);  // validated above: does not throw
+  min_depth_ = mapper_config_.grid.min_range;
+  max_depth_ = mapper_config_.grid.max_range;
+  max_rate_ = ros_config_.max_rate;
+
+  map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("safety_map", 1, true);
+  labels_pub_ = nh_.advertise<SafetyMapMsg>("safety_map_labels", 1, true);
+  markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("planes", 1);
+  points_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("occupied_points", 1);
+  timings_pub_ = nh_.advertise<StageTimingsMsg>("stage_timings", 10);
+  reset_srv_ = pnh_.advertiseService("reset", &SafetyMapRos::resetSrv, this);
+  save_srv_ = pnh_.advertiseService("save", &SafetyMapRos::saveSrv, this);
+
+  // The server reads the (already validated) start-up values from the parameter server and calls
+  // reconfigureCb once with them.
+  reconfigure_ =
+      std::make_unique<dynamic_reconfigure::Server<SafetyMapConfig>>(reconfigure_mutex_, pnh_);
+  reconfigure_->setCallback(boost::bind(&SafetyMapRos::reconfigureCb, this, boost::placeholders::_1,
+                                        boost::placeholders::_2));
+
+  worker_ = std::thread(&SafetyMapRos::workerLoop, this);
+  setUpInputs();
+  ROS_INFO_STREAM(name_ << ": building the safety map in '" << ros_config_.fixed_frame << "' from "
+                        << (ros_config_.input == "cloud" ? "point clouds" : "disparity images")
+                        << ", robot frame '" << ros_config_.base_frame << "'");
+}
+
+SafetyMapRos::~SafetyMapRos() {
+  // Inputs first, so that no callback enqueues while the worker stops.
+  exact_sync_.reset();
+  approximate_sync_.reset();
+  disparity_filter_.reset();
+  cloud_filter_.reset();
+  disparity_sub_.reset();
+  left_info_sub_.reset();
+  right_info_sub_.reset();
+  cloud_sub_.reset();
+  {
+    std::lock_guard<std::mutex> lock(slot_mutex_);
+    stop_ = true;
+  }
+  slot_cv_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  diagnostics_timer_.stop();
+}
+
+void SafetyMapRos::setUpInputs() {
+  const int q = ros_config_.queue_size;
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(30.0));
+  tf_listener_ = std::make_shared<tf2_ros::TransformListener>(*tf_buffer_, nh_);
+  auto failure = [this](const auto& msg, tf2_ros::filter_failure_reasons::FilterFailureReason r) {
+    tfFailure(msg->header, r);
+  };
+  if (ros_config_.input == "cloud") {
+    cloud_sub_ =
+        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "points", q);
+    cloud_sub_->registerCallback(
+        [this](const sensor_msgs::PointCloud2ConstPtr& m) { noteArrival(m->header); });
+    cloud_filter_ =
+        std::make_unique<CloudFilter>(*cloud_sub_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
+    cloud_filter_->registerCallback(
+        boost::bind(&SafetyMapRos::cloudCb, this, boost::placeholders::_1));
+    cloud_filter_->registerFailureCallback(
+        [failure](const sensor_msgs::PointCloud2ConstPtr& m,
+                  tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
+    return;
+  }
+  disparity_sub_ = std::make_unique<message_filters::Subscriber<stereo_msgs::DisparityImage>>(
+      nh_, "stereo/disparity", q);
+  left_info_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
+      nh_, "stereo/left/camera_info", q);
+  right_info_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
+      nh_, "stereo/right/camera_info", q);
+  disparity_sub_->registerCallback(
+      [this](const stereo_msgs::DisparityImageConstPtr& m) { noteArrival(m->header); });
+  disparity_filter_ = std::make_unique<DisparityFilter>(*disparity_sub_, *tf_buffer_,
+                                                        ros_config_.fixed_frame, q, nh_);
+  disparity_filter_->registerFailureCallback(
+      [failure](const stereo_msgs::DisparityImageConstPtr& m,
+                tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
+  if (ros_config_.approximate_sync) {
+    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
+        ApproximatePolicy(q), *disparity_filter_, *left_info_sub_, *right_info_sub_);
+    approximate_sync_->registerCallback(
+        boost::bind(&SafetyMapRos::disparityCb, this, boost::placeholders::_1,
+                    boost::placeholders::_2, boost::placeholders::_3));
+  } else {
+    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+        ExactPolicy(q), *disparity_filter_, *left_info_sub_, *right_info_sub_);
+    exact_sync_->registerCallback(boost::bind(&SafetyMapRos::disparityCb, this,
+                                              boost::placeholders::_1, boost::placeholders::_2,
+                                              boost::placeholders::_3));
+  }
+}
+
+void SafetyMapRos::noteArrival(const std_msgs::Header& header) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++frames_received_;
+    ++window_received_;
+  }
+  std::lock_guard<std::mutex> lock(arrival_mutex_);
+  arrivals_.emplace_back(header.stamp, Clock::now());
+  while (arrivals_.size() > kMaxArrivals)
+    arrivals_.pop_front();
+}
+
+double SafetyMapRos::tfWaitMs(const std_msgs::Header& header) {
+  std::lock_guard<std::mutex> lock(arrival_mutex_);
+  for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it) {
+    if (it->first == header.stamp) {
+      const double ms =
+          std::chrono::duration<double, std::milli>(Clock::now() - it->second).count();
+      arrivals_.erase(arrivals_.begin(), it + 1);
+      return ms;
+    }
+  }
+  return 0.0;
+}
+
+void SafetyMapRos::tfFailure(const std_msgs::Header& header,
+                             tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++tf_failures_;
+  }
+  std::string why;
+  switch (reason) {
+    case tf2_ros::filter_failure_reasons::OutTheBack:
+      why = "the message is older than the transforms tf still holds";
+      break;
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+      why = "the message has an empty frame_id";
+      break;
+    default:
+      why = "no transform arrived while it waited in the queue";
+      break;
+  }
+  std::ostringstream os;
+  os << "dropped a frame at t = " << header.stamp << " from '" << header.frame_id << "': no tf to '"
+     << ros_config_.fixed_frame << "' (" << why << "). Is the tf tree complete?";
+  reject("missing tf", os.str());
+}
+
+void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
+                               const sensor_msgs::CameraInfoConstPtr& left,
+                               const sensor_msgs::CameraInfoConstPtr& right) {
+  auto frame = std::make_unique<Frame>();
+  frame->header = disparity->header;
+  frame->disparity = disparity;
+  frame->left_info = left;
+  frame->right_info = right;
+  frame->tf_wait_ms = tfWaitMs(disparity->header);
+  enqueue(std::move(frame));
+}
+
+void SafetyMapRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
+  auto frame = std::make_unique<Frame>();
+  frame->header = cloud->header;
+  frame->cloud = cloud;
+  frame->tf_wait_ms = tfWaitMs(cloud->header);
+  enqueue(std::move(frame));
+}
+
+void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
+  bool dropped = false;
+  {
+    std::lock_guard<std::mutex> lock(slot_mutex_);
+    if (stop_) return;
+    dropped = static_cast<bool>(slot_);
+    slot_ = std::move(frame);
+  }
+  slot_cv_.notify_one();
+  if (dropped) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++frames_dropped_;
+    ++window_dropped_;
+  }
+}
+
+void SafetyMapRos::workerLoop() {
+  Clock::time_point last_start;
+  for (;;) {
+    std::unique_ptr<Frame> frame;
+    {
+      std::unique_lock<std::mutex> lock(slot_mutex_);
+      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
+      if (stop_) return;
+      const double rate = max_rate_.load();
+      if (rate > 0.0) {
+        // Frames arriving meanwhile replace the waiting one (and are counted as drops).
+        const auto next = last_start + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(1.0 / rate));
+        slot_cv_.wait_until(lock, next, [this] { return stop_; });
+        if (stop_) return;
+      }
+      frame = std::move(slot_);
+    }
+    last_start = Clock::now();
+    try {
+      processFrame(*frame);
+    } catch (const std::exception& e) {
+      reject("exception", std::string("frame skipped after an exception: ") + e.what());
+    }
+  }
+}
+
+void SafetyMapRos::reject(const std::string& reason, const std::string& detail) {
+  const ros::WallTime now = ros::WallTime::now();
+  bool log = false;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (reason != "missing tf") ++frames_rejected_;  // tf drops are counted in tf_failures_
+    ++rejections_[reason];
+    last_problem_ = detail;
+    last_problem_time_ = now;
+    ros::WallTime& last = last_logged_[reason];
+    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
+      last = now;
+      log = true;
+    }
+  }
+  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+}
+
+void SafetyMapRos::processFrame(const Frame& frame) {
+  const Clock::time_point t0 = Clock::now();
+  const ros::Time stamp = frame.header.stamp;
+
+  // Time going backwards: a bag restarted (reset once, with one warning) or a late frame.
+  bool reset_for_time = false;
+  if (!last_stamp_.isZero() && stamp < last_stamp_) {
+    const double back = (last_stamp_ - stamp).toSec();
+    if (back > ros_config_.time_jump_reset) {
+      ROS_WARN_STREAM(name_ << ": time went back by " << back << " s (stamp " << stamp << " after "
+                            << last_stamp_ << "; a bag restarted?): resetting the map");
+      reset_for_time = true;
+    } else {
+      std::ostringstream os;
+      os << "dropped a frame out of order: stamp " << stamp << " is " << back
+         << " s older than the last frame (less than time_jump_reset = "
+         << ros_config_.time_jump_reset << " s, so the map is kept)";
+      reject("out of order", os.str());
+      return;
+    }
+  }
+
+  // Transforms: the sensor's is available (the tf2 MessageFilter waited for it); the base's
+  // may need a moment more.
+  Eigen::Isometry3f T_fixed_sensor;
+  Eigen::Vector3f robot_position;
+  try {
+    T_fixed_sensor =
+        tf2::transformToEigen(
+            tf_buffer_->lookupTransform(ros_config_.fixed_frame, frame.header.frame_id, stamp))
+            .cast<float>();
+    const geometry_msgs::TransformStamped base =
+        tf_buffer_->lookupTransform(ros_config_.fixed_frame, ros_config_.base_frame, stamp,
+                                    ros::Duration(ros_config_.tf_timeout));
+    robot_position = Eigen::Vector3f(static_cast<float>(base.transform.translation.x),
+                                     static_cast<float>(base.transform.translation.y),
+                                     static_cast<float>(base.transform.translation.z));
+  } catch (const tf2::TransformException& e) {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++tf_failures_;
+    }
+    reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +
+                             ": tf lookup failed: " + e.what());
+    return;
+  }
+
+  // Convert the input into sensor-frame points (worker-owned buffers).
+  std::size_t non_finite = 0;
+  if (frame.disparity) {
+    std::string err = cameraModelFromCameraInfo(*frame.left_info, *frame.right_info, &camera_);
+    if (err.empty()) err = cameraModelForDisparity(*frame.disparity, *frame.left_info, &camera_);
+    if (!err.empty()) {
+      reject("bad camera model", "dropped a disparity frame: " + err);
+      return;
+    }
+    DisparityImageStats stats;
+    err = disparityImageToMat(*frame.disparity, &disparity_, &stats);
+    if (!err.empty()) {
+      reject("bad disparity image", "dropped a disparity frame: " + err);
+      return;
+    }
+    non_finite = stats.non_finite;
+    reprojectDisparity(disparity_, camera_, min_depth_, max_depth_, ros_config_.disparity_step,
+                       &points_);
+    if (points_.empty()) {
+      std::ostringstream os;
+      os << "dropped a disparity frame without a valid pixel (" << stats.non_finite
+         << " NaN / inf and " << stats.out_of_range << " outside [min_disparity, max_disparity]"
+         << " of " << stats.pixels << ")";
+      reject(stats.non_finite > 0 ? "non-finite input" : "no valid data", os.str());
+      return;
+    }
+  } else if (frame.cloud) {
+    CloudStats stats;
+    const std::string err = pointCloud2ToPoints(*frame.cloud, &points_, &stats);
+    if (!err.empty()) {
+      reject("bad point cloud", "dropped a cloud: " + err);
+      return;
+    }
+    non_finite = stats.non_finite;
+    if (points_.empty()) {
+      std::ostringstream os;
+      os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "
+         << stats.points << ")";
+      reject("non-finite input", os.str());
+      return;
+    }
+  }
+  if (non_finite > 0) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    non_finite_values_ += non_finite;
+  }
+
+  FrameResult result;
+  {
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    if (reset_for_time) {
+      mapper_->reset();
+      std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+      ++map_resets_;
+      last_problem_ = "time went backwards: map reset";
+      last_problem_time_ = ros::WallTime::now();
+    }
+    last_stamp_ = stamp;
+    mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, &result);
+    if (result.status == FrameStatus::kIntegrated) {
+      robot_position_ = robot_position;
+      std_msgs::Header header;
+      header.stamp = stamp;
+      header.frame_id = ros_config_.fixed_frame;
+      publishOutputs(header, robot_position);
+    }
+  }
+
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (result.status == FrameStatus::kIntegrated || result.status == FrameStatus::kStationary) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (result.status == FrameStatus::kStationary) {
+      ++frames_stationary_;
+    } else {
+      ++frames_processed_;
+      ++window_processed_;
+      processing_ms_last_ = ms;
+      processing_ms_sum_ += ms;
+    }
+    tf_wait_ms_sum_ += frame.tf_wait_ms;
+    ++tf_wait_count_;
+    return;
+  }
+  reject("refused by the core", std::string("frame ") + toString(result.status));
+}
+
+void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
+                                  const Eigen::Vector3f& robot_position) {
+  const SafetyMap& map = mapper_->safetyMap();
+  auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
+  toOccupancyGrid(map, mapper_->config().labelling, header, grid.get());
+  map_pub_.publish(grid);
+
+  auto labels = boost::make_shared<SafetyMapMsg>();
+  toSafetyMapMsg(map, robot_position, header, labels.get());
+  labels_pub_.publish(labels);
+
+  if (markers_pub_.getNumSubscribers() > 0) {
+    auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
+    toMarkerArray(*mapper_, header, markers.get());
+    markers_pub_.publish(markers);
+  }
+  if (points_pub_.getNumSubscribers() > 0) {
+    auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+    occupiedPointsToCloud(mapper_->grid(), header, cloud.get());
+    points_pub_.publish(cloud);
+  }
+  auto timings = boost::make_shared<StageTimingsMsg>();
+  toStageTimingsMsg(mapper_->lastTimings(), header, timings.get());
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    timings->frames_received = frames_received_;
+    timings->frames_processed = frames_processed_ + 1;  // this one
+    timings->frames_skipped_stationary = frames_stationary_;
+    timings->frames_dropped = frames_dropped_;
+    timings->frames_rejected = frames_rejected_ + tf_failures_;
+  }
+  timings_pub_.publish(timings);
+}
+
+bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
+  if (!mapper_) return false;
+  std::lock_guard<std::mutex> lock(core_mutex_);
+  mapper_->reset();
+  {
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    ++map_resets_;
+  }
+  ROS_INFO_STREAM(name_ << ": map reset on request");
+  return true;
+}
+
+bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
+  if (!mapper_) {
+    res.success = false;
+    res.message = "not running: " + config_error_;
+    return true;
+  }
+  std::lock_guard<std::mutex> lock(core_mutex_);
+  const SafetyMap& map = mapper_->safetyMap();
+  if (map.width <= 0 || map.height <= 0) {
+    res.success = false;
+    res.message = "no map yet: no frame has been integrated since the start or the last reset";
+    return true;
+  }
+  const std::string prefix = req.path_prefix.empty() ? ros_config_.save_prefix : req.path_prefix;
+  const std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
+  if (ec) {
+    res.success = false;
+    res.message = "cannot create " + parent.string() + ": " + ec.message();
+    return true;
+  }
+
+  std::vector<std::pair<std::string, std::string>> files;  // path, contents
+
+  // The 3D model as an OctoMap: occupied voxels occupied, voxels with negative log-odds free.
+  // OctoMap's voxels span [k l, (k + 1) l), ours are centred on k l (Eq. (1)): voxel (u, v, w)
+  // is stored as OctoMap's voxel (u, v, w), i.e. shifted by l / 2 along each axis.
+  const VoxelGrid& grid = mapper_->grid();
+  const double l = grid.config().voxel_size;
+  {
+    octomap::OcTree tree(l);
+    const VoxelIndex gmin = grid.minIndex();
+    for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
+      for (int v = gmin.v; v < gmin.v + grid.sizeV(); ++v) {
+        for (int u = gmin.u; u < gmin.u + grid.sizeU(); ++u) {
+          const VoxelIndex i{u, v, w};
+          const bool occupied = grid.isOccupied(i);
+          if (!occupied && grid.logOdds(i) >= 0) continue;  // unknown
+          const octomap::point3d p(static_cast<float>((u + 0.5) * l),
+                                   static_cast<float>((v + 0.5) * l),
+                                   static_cast<float>((w + 0.5) * l));
+          tree.setNodeValue(
+              p, occupied ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(), true);
+        }
+      }
+    }
+    tree.updateInnerOccupancy();
+    std::ostringstream os;
+    if (!tree.writeBinary(os)) {
+      res.success = false;
+      res.message = "OctoMap could not serialise the 3D model";
+      return true;
+    }
+    files.emplace_back(prefix + ".bt", os.str());
+  }
+
+  // The safety map for map_server (trinary): Level / Inclined free (254), Non-ground and
+  // potential drop-off edges occupied (0), Unknown / Unexamined unknown (205). Row 0 of the
+  // image is the map's top (largest y). Plus a colour picture with 000 Fig. 4(a)'s colours.
+  {
+    std::ostringstream pgm;
+    pgm << "P5\n# stereo_safety_map safety map\n" << map.width << " " << map.height << "\n255\n";
+    cv::Mat colour(map.height, map.width, CV_8UC3);
+    std::string pixels(static_cast<std::size_t>(map.width) * map.height, '\0');
+    for (int r = 0; r < map.height; ++r) {
+      const int v = map.min_v + map.height - 1 - r;
+      for (int c = 0; c < map.width; ++c) {
+        const int u = map.min_u + c;
+        const int k = map.index(u, v);
+        const SafetyLabel label = map.labels[k];
+        const bool drop = map.drop_off[k] != 0;
+        unsigned char g = 205;
+        cv::Vec3b bgr(80, 80, 80);  // Unexamined: dark grey
+        if (drop && isSafe(label)) {
+          g = 0;
+          bgr = cv::Vec3b(255, 0, 0);  // blue
+        } else if (label == SafetyLabel::kLevel) {
+          g = 254;
+          bgr = cv::Vec3b(255, 255, 255);
+        } else if (label == SafetyLabel::kInclined) {
+          g = 254;
+          bgr = cv::Vec3b(0, 255, 255);  // yellow
+        } else if (label == SafetyLabel::kNonGround) {
+          g = 0;
+          bgr = cv::Vec3b(0, 0, 0);
+        } else if (label == SafetyLabel::kUnknown) {
+          bgr = cv::Vec3b(200, 200, 200);
+        }
+        pixels[static_cast<std::size_t>(r) * map.width + c] = static_cast<char>(g);
+        colour.at<cv::Vec3b>(r, c) = bgr;
+      }
+    }
+    pgm << pixels;
+    files.emplace_back(prefix + ".pgm", pgm.str());
+
+    const nav_msgs::MapMetaData info = mapMetaData(map, ros::Time());
+    std::ostringstream yaml;
+    yaml << "# Safety map of stereo_safety_map (paper 000 Sec. VI) in map_server's format.\n"
+         << "# Free: Level and Inclined; occupied: Non-ground and potential drop-off edges;\n"
+         << "# unknown: Unknown and Unexamined. Frame: " << ros_config_.fixed_frame << ".\n"
+         << "image: " << std::filesystem::path(prefix).filename().string() << ".pgm\n"
+         << "resolution: " << info.resolution << "\n"
+         << "origin: [" << info.origin.position.x << ", " << info.origin.position.y << ", 0.0]\n"
+         << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n";
+    files.emplace_back(prefix + ".yaml", yaml.str());
+
+    std::vector<unsigned char> png;
+    if (cv::imencode(".png", colour, png)) {
+      files.emplace_back(prefix + "_labels.png", std::string(png.begin(), png.end()));
+    }
+  }
+
+  for (const auto& f : files) {
+    const std::string err = writeFileAtomically(f.first, f.second);
+    if (!err.empty()) {
+      res.success = false;
+      res.message = err;
+      return true;
+    }
+    res.files.push_back(f.first);
+  }
+  res.success = true;
+  res.message = "saved " + std::to_string(res.files.size()) + " files";
+  ROS_INFO_STREAM(name_ << ": " << res.message << " with prefix " << prefix);
+  return true;
+}
+
+void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
+  if (!mapper_) return;
+  SafetyMapperConfig c = mapper_config_;
+  c.grid.incr_high = config.incr_high;
+  c.grid.incr_low = config.incr_low;
+  c.grid.decr = config.decr;
+  c.grid.occ_threshold = config.occ_threshold;
+  c.height_map.robot_height = config.robot_height;
+  c.segmentation.planning_radius = config.planning_radius;
+  c.segmentation.height_tolerance = config.height_tolerance;
+  c.labelling.max_slope_deg = config.max_slope_deg;
+  c.labelling.level_slope_deg = config.level_slope_deg;
+  c.labelling.min_segment_cells = config.min_segment_cells;
+  c.labelling.thin_ratio = config.thin_ratio;
+  c.labelling.max_step_height = config.max_step_height;
+  c.labelling.min_passage_cells = config.min_passage_cells;
+  c.labelling.mark_drop_offs = config.mark_drop_offs;
+  c.labelling.drop_off_radius = config.drop_off_radius;
+  c.labelling.drop_off_min_drop = config.drop_off_min_drop;
+  c.skip_stationary_frames = config.skip_stationary_frames;
+  c.stationary_translation = config.stationary_translation;
+  c.stationary_rotation_deg = config.stationary_rotation_deg;
+
+  const std::string err = c.validate();
+  if (!err.empty()) {
+    ROS_ERROR_STREAM(name_ << ": reconfiguration refused, keeping the previous values: " << err);
+    // Hand the current values back to the server (and so to rqt_reconfigure).
+    const SafetyMapperConfig& o = mapper_config_;
+    config.incr_high = o.grid.incr_high;
+    config.incr_low = o.grid.incr_low;
+    config.decr = o.grid.decr;
+    config.occ_threshold = o.grid.occ_threshold;
+    config.robot_height = o.height_map.robot_height;
+    config.planning_radius = o.segmentation.planning_radius;
+    config.height_tolerance = o.segmentation.height_tolerance;
+    config.max_slope_deg = o.labelling.max_slope_deg;
+    config.level_slope_deg = o.labelling.level_slope_deg;
+    config.min_segment_cells = o.labelling.min_segment_cells;
+    config.thin_ratio = o.labelling.thin_ratio;
+    config.max_step_height = o.labelling.max_step_height;
+    config.min_passage_cells = o.labelling.min_passage_cells;
+    config.mark_drop_offs = o.labelling.mark_drop_offs;
+    config.drop_off_radius = o.labelling.drop_off_radius;
+    config.drop_off_min_drop = o.labelling.drop_off_min_drop;
+    config.skip_stationary_frames = o.skip_stationary_frames;
+    config.stationary_translation = o.stationary_translation;
+    config.stationary_rotation_deg = o.stationary_rotation_deg;
+    config.max_rate = ros_config_.max_rate;
+    return;
+  }
+  ros_config_.max_rate = config.max_rate;
+  max_rate_ = config.max_rate;
+
+  const VoxelGridConfig& g = mapper_config_.grid;
+  const bool grid_changed = c.grid.incr_high != g.incr_high || c.grid.incr_low != g.incr_low ||
+                            c.grid.decr != g.decr || c.grid.occ_threshold != g.occ_threshold;
+  const auto& o = mapper_config_;
+  const bool stage_changed = c.height_map.robot_height != o.height_map.robot_height ||
+                             c.segmentation.planning_radius != o.segmentation.planning_radius ||
+                             c.segmentation.height_tolerance != o.segmentation.height_tolerance ||
+                             c.labelling.max_slope_deg != o.labelling.max_slope_deg ||
+                             c.labelling.level_slope_deg != o.labelling.level_slope_deg ||
+                             c.labelling.min_segment_cells != o.labelling.min_segment_cells ||
+                             c.labelling.thin_ratio != o.labelling.thin_ratio ||
+                             c.labelling.max_step_height != o.labelling.max_step_height ||
+                             c.labelling.min_passage_cells != o.labelling.min_passage_cells ||
+                             c.labelling.mark_drop_offs != o.labelling.mark_drop_offs ||
+                             c.labelling.drop_off_radius != o.labelling.drop_off_radius ||
+                             c.labelling.drop_off_min_drop != o.labelling.drop_off_min_drop ||
+                             c.skip_stationary_frames != o.skip_stationary_frames ||
+                             c.stationary_translation != o.stationary_translation ||
+                             c.stationary_rotation_deg != o.stationary_rotation_deg;
+  if (!grid_changed && !stage_changed) return;
+
+  // SafetyMapper has no setter for its config: build a new one. The stages keep no state
+  // between frames, so for a stage change the 3D model (the voxel grid) is copied over; the
+  // grid's sensor model cannot be changed in place, so a grid change starts a new map.
+  std::lock_guard<std::mutex> lock(core_mutex_);
+  auto fresh = std::make_unique<SafetyMapper>(c);
+  if (grid_changed) {
+    ROS_WARN_STREAM(name_ << ": voxel grid sensor model changed (incr_high " << c.grid.incr_high
+                          << ", incr_low " << c.grid.incr_low << ", decr " << c.grid.decr
+                          << ", occ_threshold " << c.grid.occ_threshold
+                          << "): the map starts again");
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    ++map_resets_;
+  } else {
+    fresh->grid() = mapper_->grid();
+    if (mapper_->safetyMap().width > 0) fresh->computeSafetyMap(robot_position_);
+    ROS_INFO_STREAM(name_ << ": reconfigured; the 3D model is kept");
+  }
+  mapper_ = std::move(fresh);
+  mapper_config_ = c;
+}
+
+void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  using diagnostic_msgs::DiagnosticStatus;
+  if (!config_error_.empty()) {
+    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
+    return;
+  }
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  stat.add("input", ros_config_.input);
+  stat.add("fixed frame", ros_config_.fixed_frame);
+  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
+  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
+  stat.add("frames received", frames_received_);
+  stat.add("frames processed", frames_processed_);
+  stat.add("frames skipped (stationary)", frames_stationary_);
+  stat.add("frames dropped (processing slower than input)", frames_dropped_);
+  stat.add("frames rejected (bad input)", frames_rejected_);
+  stat.add("frames dropped (missing tf)", tf_failures_);
+  stat.add("NaN / inf values skipped", non_finite_values_);
+  stat.add("map resets", map_resets_);
+  stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
+  stat.addf("processing time, mean [ms]", "%.1f",
+            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  stat.addf("tf wait, mean [ms]", "%.1f",
+            tf_wait_count_ > 0 ? tf_wait_ms_sum_ / tf_wait_count_ : 0.0);
+  for (const auto& r : rejections_)
+    stat.add("problem: " + r.first, r.second);
+  stat.add("last problem", last_problem_);
+
+  const bool recent_problem =
+      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
+  if (recent_problem) {
+    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  } else if (window_dropped_ > 0) {
+    stat.summaryf(DiagnosticStatus::WARN,
+                  "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "
+                  "the input or max_rate)",
+                  static_cast<unsigned long long>(window_dropped_),
+                  static_cast<unsigned long long>(window_received_), window);
+  } else if (frames_received_ == 0) {
+    stat.summary(DiagnosticStatus::OK, "waiting for input");
+  } else {
+    stat.summary(DiagnosticStatus::OK, "map up to date");
+  }
+  if (window >= 1.0) {
+    window_start_ = now;
+    window_received_ = window_processed_ = window_dropped_ = 0;
+  }
+}
+
+}  // namespace stereo_safety_map

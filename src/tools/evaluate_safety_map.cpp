@@ -1,0 +1,1998 @@
+// evaluate_safety_map: the evaluation framework of paper 000 Sec. VII on rosbags, without a
+// roscore. Reads each dataset bag directly (rosbag::View), runs the core pipeline the nodelets run
+// (StereoFrameProcessor: disparity -> reprojection -> SafetyMapper) on every stereo pair with the
+// camera pose from the bag's tf, compares each safety map with the dataset's ground truth and
+// writes metrics.json, report.md, per-frame CSVs and PNGs.
+//
+//   evaluate_safety_map --bag A.bag [--bag B.bag ...] [--latency-bag L.bag ...] [--out DIR]
+//                       [--decr 1,3,5] [--every N] [--max-frames N] [--images N]
+//                       [--plane-frames N] [--seed S] [--params config/safety_map.yaml]
+//                       [--recorded REC.bag] [--fixed-frame odom] [--base-frame base_link]
+//                       [--camera stereo] [--no-model] [--quiet]
+//
+// Measures (docs/evaluation.md):
+//  - FN / FP / TP / TN rates of 000 Sec. VII-A per frame and per dataset (from sums over the
+//    dataset's maps), averaged over datasets with standard deviations; stationary frames are
+//    skipped by the mapper and not evaluated;
+//  - safe-class precision / recall / F1 of 001 Sec. 5;
+//  - plane accuracy of 000 Sec. VII-C (normal angle, mean distance) of all safe planes in
+//    --plane-frames randomly chosen frames per dataset (the paper's protocol) and in all frames;
+//  - frame latency of 000 Sec. VII-B on the --latency-bag datasets: frames until 50 % / 90 % of the
+//    board's width is occupied in the 3D grid;
+//  - wall time per stage and per frame.
+// --decr 1,3,5 runs one mapper per value on the same disparity images (Table II, Fig. 6(a)).
+// --recorded REC.bag evaluates the SafetyMap messages recorded from the nodelets (topic
+// safety_map_labels) against the ground truth of the single --bag instead of running the core.
+#include "stereo_safety_map/core/evaluation_metrics.h"
+#include "stereo_safety_map/core/stereo_frame_processor.h"
+#include "stereo_safety_map/ros/msgs.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <image_geometry/stereo_camera_model.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/time.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
+#include <yaml-cpp/yaml.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <random>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace ssm = stereo_safety_map;
+using ssm::SafetyLabel;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+struct Options {
+  std::vector<std::string> bags;
+  std::vector<std::string> latency_bags;
+  std::string out = "out/evaluation";
+  std::vector<int> decr = {1};
+  int every = 1;
+  long max_frames = -1;
+  int images = 3;
+  int plane_frames = 5;
+  unsigned seed = 1;
+  std::string params;
+  std::vector<std::string> sets;
+  std::string recorded;
+  std::string fixed_frame = "odom";
+  std::string base_frame = "base_link";
+  std::string camera = "stereo";
+  bool model = true;
+  bool quiet = false;
+};
+
+void usage() {
+  std::fprintf(
+      stderr,
+      "usage: evaluate_safety_map --bag FILE [--bag FILE ...] [--latency-bag FILE ...] [--out "
+      "DIR]\n"
+      "         [--decr 1,3,5] [--every N] [--max-frames N] [--images N] [--plane-frames N]\n"
+      "         [--seed S] [--params YAML] [--set key=value ...] [--recorded REC.bag]\n"
+      "         [--fixed-frame F] [--base-frame F]\n"
+      "         [--camera NS] [--no-model] [--quiet]\n"
+      "  --bag          dataset bag made by make_dataset (ground truth in <bag>_gt/ and in the "
+      "bag)\n"
+      "  --latency-bag  dataset with a board (000 Sec. VII-B): frame latency only\n"
+      "  --decr         one mapper per value on the same disparities (000 Table II)\n"
+      "  --every N      process every N-th stereo pair only (faster, changes the maps)\n"
+      "  --images N     safety map / GT / error PNGs of N frames per dataset (0 = none)\n"
+      "  --plane-frames frames per dataset drawn at random (--seed) for plane accuracy (000 "
+      "VII-C)\n"
+      "  --params       YAML with the nodelet's flat parameters (config/safety_map.yaml)\n"
+      "  --set k=v      one parameter (after --params), e.g. --set matcher=sgbm\n"
+      "  --recorded     evaluate SafetyMap messages recorded from the nodelets instead of running\n"
+      "                 the core (one --bag: the dataset the recording was made from)\n");
+}
+
+bool parseIntList(const std::string& s, std::vector<int>* out) {
+  out->clear();
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const long v = std::strtol(item.c_str(), &end, 10);
+    if (end == item.c_str() || *end != '\0' || v < 0 || v > 10000) return false;
+    out->push_back(static_cast<int>(v));
+  }
+  return !out->empty();
+}
+
+bool parseArgs(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    const char* v = nullptr;
+    if (a == "--bag" && (v = next())) {
+      o->bags.push_back(v);
+    } else if (a == "--latency-bag" && (v = next())) {
+      o->latency_bags.push_back(v);
+    } else if (a == "--out" && (v = next())) {
+      o->out = v;
+    } else if (a == "--decr" && (v = next())) {
+      if (!parseIntList(v, &o->decr)) return false;
+    } else if (a == "--every" && (v = next())) {
+      o->every = std::atoi(v);
+      if (o->every < 1) return false;
+    } else if (a == "--max-frames" && (v = next())) {
+      o->max_frames = std::atol(v);
+    } else if (a == "--images" && (v = next())) {
+      o->images = std::max(0, std::atoi(v));
+    } else if (a == "--plane-frames" && (v = next())) {
+      o->plane_frames = std::max(0, std::atoi(v));
+    } else if (a == "--seed" && (v = next())) {
+      o->seed = static_cast<unsigned>(std::strtoul(v, nullptr, 10));
+    } else if (a == "--params" && (v = next())) {
+      o->params = v;
+    } else if (a == "--set" && (v = next())) {
+      o->sets.push_back(v);
+    } else if (a == "--recorded" && (v = next())) {
+      o->recorded = v;
+    } else if (a == "--fixed-frame" && (v = next())) {
+      o->fixed_frame = v;
+    } else if (a == "--base-frame" && (v = next())) {
+      o->base_frame = v;
+    } else if (a == "--camera" && (v = next())) {
+      o->camera = v;
+    } else if (a == "--no-model") {
+      o->model = false;
+    } else if (a == "--quiet") {
+      o->quiet = true;
+    } else {
+      std::fprintf(stderr, "bad or incomplete argument: %s\n", a.c_str());
+      return false;
+    }
+  }
+  if (o->bags.empty() && o->latency_bags.empty()) return false;
+  if (!o->recorded.empty() && (o->bags.size() != 1 || !o->latency_bags.empty())) {
+    std::fprintf(stderr, "--recorded needs exactly one --bag (the dataset it was recorded from)\n");
+    return false;
+  }
+  return true;
+}
+
+bool makeDirs(const std::string& path) {
+  std::string cur;
+  std::stringstream ss(path);
+  std::string part;
+  if (!path.empty() && path[0] == '/') cur = "/";
+  while (std::getline(ss, part, '/')) {
+    if (part.empty()) continue;
+    cur += part + "/";
+    if (mkdir(cur.c_str(), 0775) != 0 && errno != EEXIST) return false;
+  }
+  return true;
+}
+
+bool fileExists(const std::string& p) {
+  struct stat st;
+  return stat(p.c_str(), &st) == 0;
+}
+
+std::string baseName(const std::string& path) {
+  std::string b = path.substr(path.find_last_of('/') + 1);
+  if (b.size() > 4 && b.compare(b.size() - 4, 4, ".bag") == 0) b.resize(b.size() - 4);
+  return b;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parameters: the nodelet's flat keys (config/safety_map.yaml), core fields only.
+
+// Applies the keys of `root` (a map) that name core parameters; `unknown` receives the others.
+std::string applyParams(const YAML::Node& root, const std::string& path,
+                        ssm::StereoFrameProcessorConfig* c, std::vector<std::string>* unknown) {
+  ssm::SafetyMapperConfig& m = c->mapper;
+  ssm::DisparityPipelineConfig& dp = c->disparity;
+  std::map<std::string, std::function<void(const YAML::Node&)>> table = {
+      {"voxel_size", [&](const YAML::Node& n) { m.grid.voxel_size = n.as<double>(); }},
+      {"size_x", [&](const YAML::Node& n) { m.grid.size_x = n.as<double>(); }},
+      {"size_y", [&](const YAML::Node& n) { m.grid.size_y = n.as<double>(); }},
+      {"size_z", [&](const YAML::Node& n) { m.grid.size_z = n.as<double>(); }},
+      {"z_below_robot", [&](const YAML::Node& n) { m.grid.z_below_robot = n.as<double>(); }},
+      {"incr_high", [&](const YAML::Node& n) { m.grid.incr_high = n.as<int>(); }},
+      {"incr_low", [&](const YAML::Node& n) { m.grid.incr_low = n.as<int>(); }},
+      {"decr", [&](const YAML::Node& n) { m.grid.decr = n.as<int>(); }},
+      {"occ_threshold", [&](const YAML::Node& n) { m.grid.occ_threshold = n.as<int>(); }},
+      {"lop_min", [&](const YAML::Node& n) { m.grid.lop_min = n.as<int>(); }},
+      {"lop_max", [&](const YAML::Node& n) { m.grid.lop_max = n.as<int>(); }},
+      {"point_list_capacity",
+       [&](const YAML::Node& n) { m.grid.point_list_capacity = n.as<int>(); }},
+      {"max_range", [&](const YAML::Node& n) { m.grid.max_range = n.as<double>(); }},
+      {"min_range", [&](const YAML::Node& n) { m.grid.min_range = n.as<double>(); }},
+      {"robot_height", [&](const YAML::Node& n) { m.height_map.robot_height = n.as<double>(); }},
+      {"planning_radius",
+       [&](const YAML::Node& n) { m.segmentation.planning_radius = n.as<double>(); }},
+      {"height_tolerance",
+       [&](const YAML::Node& n) { m.segmentation.height_tolerance = n.as<int>(); }},
+      {"connectivity", [&](const YAML::Node& n) { m.segmentation.connectivity = n.as<int>(); }},
+      {"seed_radius", [&](const YAML::Node& n) { m.segmentation.seed_radius = n.as<double>(); }},
+      {"min_points", [&](const YAML::Node& n) { m.plane_fit.min_points = n.as<int>(); }},
+      {"min_xy_stddev", [&](const YAML::Node& n) { m.plane_fit.min_xy_stddev = n.as<double>(); }},
+      {"max_slope_deg", [&](const YAML::Node& n) { m.labelling.max_slope_deg = n.as<double>(); }},
+      {"level_slope_deg",
+       [&](const YAML::Node& n) { m.labelling.level_slope_deg = n.as<double>(); }},
+      {"min_segment_cells",
+       [&](const YAML::Node& n) { m.labelling.min_segment_cells = n.as<int>(); }},
+      {"thin_ratio", [&](const YAML::Node& n) { m.labelling.thin_ratio = n.as<double>(); }},
+      {"max_step_height",
+       [&](const YAML::Node& n) { m.labelling.max_step_height = n.as<double>(); }},
+      {"min_passage_cells",
+       [&](const YAML::Node& n) { m.labelling.min_passage_cells = n.as<int>(); }},
+      {"mark_drop_offs", [&](const YAML::Node& n) { m.labelling.mark_drop_offs = n.as<bool>(); }},
+      {"drop_off_radius",
+       [&](const YAML::Node& n) { m.labelling.drop_off_radius = n.as<double>(); }},
+      {"drop_off_min_drop",
+       [&](const YAML::Node& n) { m.labelling.drop_off_min_drop = n.as<double>(); }},
+      {"skip_stationary_frames",
+       [&](const YAML::Node& n) { m.skip_stationary_frames = n.as<bool>(); }},
+      {"stationary_translation",
+       [&](const YAML::Node& n) { m.stationary_translation = n.as<double>(); }},
+      {"stationary_rotation_deg",
+       [&](const YAML::Node& n) { m.stationary_rotation_deg = n.as<double>(); }},
+      {"scroll_with_robot", [&](const YAML::Node& n) { m.scroll_with_robot = n.as<bool>(); }},
+      {"disparity_step", [&](const YAML::Node& n) { c->disparity_step = n.as<int>(); }},
+      // Disparity stage (disparity_pipeline.h), for comparisons; the nodelets' disparity comes
+      // from the disparity nodelet's own parameters.
+      {"matcher",
+       [&](const YAML::Node& n) {
+         const std::string v = n.as<std::string>();
+         if (v != "bm" && v != "sgbm") throw std::runtime_error("matcher must be bm or sgbm");
+         dp.matcher = v == "bm" ? ssm::StereoMatcherType::kBlockMatching
+                                : ssm::StereoMatcherType::kSemiGlobal;
+       }},
+      {"num_disparities", [&](const YAML::Node& n) { dp.num_disparities = n.as<int>(); }},
+      {"block_size", [&](const YAML::Node& n) { dp.block_size = n.as<int>(); }},
+      {"enable_uniqueness", [&](const YAML::Node& n) { dp.enable_uniqueness = n.as<bool>(); }},
+      {"enable_texture", [&](const YAML::Node& n) { dp.enable_texture = n.as<bool>(); }},
+      {"enable_left_right", [&](const YAML::Node& n) { dp.enable_left_right = n.as<bool>(); }},
+      {"enable_neighbour_consistency",
+       [&](const YAML::Node& n) { dp.enable_neighbour_consistency = n.as<bool>(); }},
+      {"enable_spike_removal",
+       [&](const YAML::Node& n) { dp.enable_spike_removal = n.as<bool>(); }},
+  };
+  if (!root.IsMap()) return path + ": not a map of parameters";
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    auto it = table.find(key);
+    if (it == table.end()) {  // the nodelet's own settings (frames, queues, ...)
+      if (unknown != nullptr) unknown->push_back(key);
+      continue;
+    }
+    try {
+      it->second(kv.second);
+    } catch (const std::exception& e) {
+      return path + ": bad value for " + key + ": " + e.what();
+    }
+  }
+  return c->validate();
+}
+
+std::string loadParams(const std::string& path, ssm::StereoFrameProcessorConfig* c) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    return "cannot read " + path + ": " + e.what();
+  }
+  return applyParams(root, path, c, nullptr);
+}
+
+// --set key=value (same keys as the YAML file).
+std::string setParam(const std::string& assignment, ssm::StereoFrameProcessorConfig* c) {
+  const std::size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) return "--set needs key=value, got " + assignment;
+  YAML::Node root;
+  try {
+    root[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
+  } catch (const std::exception& e) {
+    return "--set " + assignment + ": " + e.what();
+  }
+  std::vector<std::string> unknown;
+  const std::string e = applyParams(root, "--set", c, &unknown);
+  if (!e.empty()) return e;
+  if (!unknown.empty()) return "--set: unknown core parameter " + unknown.front();
+  return "";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Ground truth of a dataset: labels from the bag (/ground_truth/labels) or <bag>_gt/gt_labels.pgm,
+// planes and obstacles from <bag>_gt/*.yaml.
+
+struct Board {
+  std::string name;
+  ssm::BoardBox box;
+};
+
+struct Dataset {
+  std::string name;
+  std::string bag;
+  std::string gt_dir;
+  ssm::LabelGrid gt;
+  std::vector<ssm::ReferencePlane> planes;
+  std::vector<Board> boards;
+  bool latency_only = false;
+  bool untextured = false;
+  std::string note;
+};
+
+Eigen::Vector3d vec3(const YAML::Node& n) {
+  return Eigen::Vector3d(n[0].as<double>(), n[1].as<double>(), n[2].as<double>());
+}
+
+std::string loadLabelsFromBag(const std::string& bag_path, ssm::LabelGrid* gt) {
+  rosbag::Bag bag;
+  try {
+    bag.open(bag_path, rosbag::bagmode::Read);
+    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/ground_truth/labels"}));
+    for (const rosbag::MessageInstance& m : view) {
+      auto g = m.instantiate<nav_msgs::OccupancyGrid>();
+      if (!g) continue;
+      const double res = g->info.resolution;
+      if (!(res > 0.0)) return "ground-truth grid has no resolution";
+      gt->resolution = res;
+      gt->width = static_cast<int>(g->info.width);
+      gt->height = static_cast<int>(g->info.height);
+      // The origin is the corner of cell (min_u, min_v), cell (u, v) centred at (u l, v l).
+      gt->min_u = static_cast<int>(std::lround(g->info.origin.position.x / res + 0.5));
+      gt->min_v = static_cast<int>(std::lround(g->info.origin.position.y / res + 0.5));
+      gt->labels.resize(g->data.size());
+      for (std::size_t k = 0; k < g->data.size(); ++k) {
+        const int v = g->data[k];
+        gt->labels[k] = v >= 0 && v <= 4 ? static_cast<SafetyLabel>(v) : SafetyLabel::kUnknown;
+      }
+      return gt->validate();
+    }
+  } catch (const std::exception& e) {
+    return std::string("cannot read ") + bag_path + ": " + e.what();
+  }
+  return "no /ground_truth/labels in " + bag_path;
+}
+
+std::string loadLabelsFromDir(const std::string& dir, ssm::LabelGrid* gt) {
+  YAML::Node y;
+  try {
+    y = YAML::LoadFile(dir + "/gt_map.yaml");
+  } catch (const std::exception& e) {
+    return "cannot read " + dir + "/gt_map.yaml";
+  }
+  const cv::Mat img = cv::imread(dir + "/gt_labels.pgm", cv::IMREAD_UNCHANGED);
+  if (img.empty() || img.type() != CV_8UC1) return "cannot read " + dir + "/gt_labels.pgm";
+  gt->resolution = y["resolution"].as<double>();
+  gt->min_u = y["grid"]["min_u"].as<int>();
+  gt->min_v = y["grid"]["min_v"].as<int>();
+  gt->width = img.cols;
+  gt->height = img.rows;
+  gt->labels.assign(static_cast<std::size_t>(img.cols) * img.rows, SafetyLabel::kUnknown);
+  for (int r = 0; r < img.rows; ++r) {  // image rows run from the largest v down
+    for (int c = 0; c < img.cols; ++c) {
+      const int v = img.at<std::uint8_t>(r, c);
+      gt->labels[static_cast<std::size_t>(img.rows - 1 - r) * img.cols + c] =
+          v <= 4 ? static_cast<SafetyLabel>(v) : SafetyLabel::kUnknown;
+    }
+  }
+  return gt->validate();
+}
+
+std::string loadDataset(const std::string& bag, bool latency_only, Dataset* d) {
+  d->bag = bag;
+  d->name = baseName(bag);
+  d->gt_dir =
+      bag.substr(
+          0, bag.size() - (bag.size() > 4 && bag.compare(bag.size() - 4, 4, ".bag") == 0 ? 4 : 0)) +
+      "_gt";
+  d->latency_only = latency_only;
+  std::string e = loadLabelsFromBag(bag, &d->gt);
+  if (!e.empty()) {
+    const std::string e2 = loadLabelsFromDir(d->gt_dir, &d->gt);
+    if (!e2.empty()) return e + "; " + e2;
+  }
+  try {
+    if (fileExists(d->gt_dir + "/gt_planes.yaml")) {
+      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/gt_planes.yaml");
+      for (const auto& p : y["planes"]) {
+        ssm::ReferencePlane r;
+        r.name = p["name"].as<std::string>();
+        r.a = p["a"].as<double>();
+        r.b = p["b"].as<double>();
+        r.c = p["c"].as<double>();
+        for (const auto& q : p["polygon"])
+          r.footprint.emplace_back(q[0].as<double>(), q[1].as<double>());
+        d->planes.push_back(r);
+      }
+    } else {
+      d->note += "no gt_planes.yaml: no plane accuracy. ";
+    }
+    if (fileExists(d->gt_dir + "/gt_obstacles.yaml")) {
+      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/gt_obstacles.yaml");
+      for (const auto& o : y["obstacles"]) {
+        if (o["type"].as<std::string>() != "board") continue;
+        Board b;
+        b.name = o["name"].as<std::string>();
+        b.box.center = vec3(o["center"]);
+        b.box.half_size = 0.5 * vec3(o["size"]);
+        const YAML::Node q = o["rotation"];
+        b.box.rotation = Eigen::Quaterniond(q[3].as<double>(), q[0].as<double>(), q[1].as<double>(),
+                                            q[2].as<double>())
+                             .normalized()
+                             .toRotationMatrix();
+        d->boards.push_back(b);
+      }
+    }
+    if (fileExists(d->gt_dir + "/dataset.yaml")) {
+      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/dataset.yaml");
+      const std::string scene = y["scene"] ? y["scene"].as<std::string>() : d->name;
+      d->untextured = scene.find("untextured") != std::string::npos;
+    }
+  } catch (const std::exception& ex) {
+    return "bad ground-truth files in " + d->gt_dir + ": " + ex.what();
+  }
+  if (latency_only && d->boards.empty()) return "no board (type: board) in " + d->gt_dir;
+  return "";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Statistics
+
+struct Series {
+  std::vector<double> v;
+  void add(double x) { v.push_back(x); }
+  double mean() const {
+    return v.empty() ? kNaN : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+  }
+  double quantile(double q) const {
+    if (v.empty()) return kNaN;
+    std::vector<double> s = v;
+    std::sort(s.begin(), s.end());
+    return s[std::min(s.size() - 1, static_cast<std::size_t>(q * (s.size() - 1) + 0.5))];
+  }
+  double max() const { return v.empty() ? kNaN : *std::max_element(v.begin(), v.end()); }
+};
+
+const char* kStageNames[] = {"disparity", "reproject", "update",       "height_map", "segmentation",
+                             "plane_fit", "labelling", "mapper_total", "frame_total"};
+constexpr int kStages = 9;
+
+struct PlaneSample {
+  int frame = 0;
+  std::string reference;
+  double angle_deg = 0.0;
+  double distance = 0.0;
+  int cells = 0;
+  SafetyLabel label = SafetyLabel::kLevel;
+};
+
+struct LatencyResult {
+  std::string board;
+  double start_distance = kNaN;  // optical centre to the board's face at the first frame [m]
+  int appear_frame = -1;         // first frame with the board in view (0-based)
+  std::vector<double> coverage;  // per camera frame from the appearance
+  int frames_to_50 = -1;
+  int frames_to_90 = -1;
+  int frames_available = 0;
+};
+
+struct FrameRecord {
+  int index = 0;
+  double stamp = 0.0;
+  std::string status;
+  bool robot_segment = false;
+  ssm::ConfusionCounts counts;
+  std::size_t points = 0;
+  double ms[kStages] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+};
+
+struct DatasetResult {
+  std::string name;
+  bool latency_only = false;
+  int pairs = 0;       // stereo pairs read
+  int integrated = 0;  // maps evaluated
+  int stationary = 0;
+  int rejected = 0;  // no tf, bad images, ...
+  int without_robot_segment = 0;
+  ssm::ConfusionCounts sum;
+  ssm::ConfusionCounts seeded;  // maps in which the robot's segment was found
+  Series stage_ms[kStages];
+  std::vector<PlaneSample> planes_all;
+  std::vector<PlaneSample> planes_protocol;
+  std::vector<int> protocol_frames;
+  std::vector<LatencyResult> latency;
+  std::vector<FrameRecord> frames;
+  std::vector<std::string> images;
+  double bag_seconds = 0.0;
+  double wall_seconds = 0.0;
+  std::map<std::string, int> problems;
+};
+
+struct Run {
+  std::string label;  // "decr=1" or "recorded"
+  int decr = 1;
+  std::vector<DatasetResult> datasets;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Pictures: safety map beside the GT map in the colours of 000 Fig. 4(a).
+
+cv::Vec3b labelColour(SafetyLabel l) {  // BGR
+  switch (l) {
+    case SafetyLabel::kNonGround:
+      return {0, 0, 0};  // black
+    case SafetyLabel::kLevel:
+      return {255, 255, 255};  // white
+    case SafetyLabel::kInclined:
+      return {0, 230, 255};  // yellow
+    case SafetyLabel::kUnknown:
+      return {200, 200, 200};  // light grey
+    case SafetyLabel::kUnexamined:
+    default:
+      return {105, 105, 105};  // dark grey
+  }
+}
+const cv::Vec3b kDropOffColour(255, 0, 0);  // blue
+
+cv::Vec3b outcomeColour(ssm::CellOutcome o) {
+  switch (o) {
+    case ssm::CellOutcome::kTruePositive:
+      return {40, 40, 40};
+    case ssm::CellOutcome::kTrueNegative:
+      return {235, 245, 235};
+    case ssm::CellOutcome::kFalsePositive:
+      return {0, 140, 255};  // orange
+    case ssm::CellOutcome::kFalseNegative:
+      return {0, 0, 230};  // red
+    default:
+      return {170, 170, 170};
+  }
+}
+
+constexpr int kScale = 4;
+
+// One panel of the map's window, +x right, +y up, kScale pixels per cell.
+cv::Mat panel(const ssm::SafetyMap& map,
+              const std::function<cv::Vec3b(int u, int v, int k)>& colour) {
+  cv::Mat img(map.height * kScale, map.width * kScale, CV_8UC3);
+  for (int r = 0; r < map.height; ++r) {
+    const int v = map.min_v + map.height - 1 - r;
+    for (int c = 0; c < map.width; ++c) {
+      const int u = map.min_u + c;
+      img(cv::Rect(c * kScale, r * kScale, kScale, kScale)) = colour(u, v, map.index(u, v));
+    }
+  }
+  return img;
+}
+
+void drawRobot(cv::Mat* img, const ssm::SafetyMap& map, const Eigen::Vector3d& position,
+               double yaw) {
+  const double px = (position.x() / map.resolution - map.min_u + 0.5) * kScale;
+  const double py = (map.min_v + map.height - 0.5 - position.y() / map.resolution) * kScale;
+  const double s = 3.0 * kScale;  // 000 Fig. 7: the robot is a red triangle
+  std::vector<cv::Point> tri;
+  for (double a : {0.0, 2.5, -2.5}) {
+    const double r = a == 0.0 ? s : 0.7 * s;
+    tri.emplace_back(static_cast<int>(px + r * std::cos(yaw + a)),
+                     static_cast<int>(py - r * std::sin(yaw + a)));
+  }
+  cv::fillConvexPoly(*img, tri, cv::Scalar(0, 0, 255), cv::LINE_AA);
+}
+
+cv::Mat titled(const cv::Mat& img, const std::string& title) {
+  cv::Mat out(img.rows + 28, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+  img.copyTo(out(cv::Rect(0, 28, img.cols, img.rows)));
+  cv::putText(out, title, cv::Point(6, 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1,
+              cv::LINE_AA);
+  return out;
+}
+
+cv::Mat legend(int width) {
+  cv::Mat out(52, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  struct Item {
+    const char* name;
+    cv::Vec3b c;
+  };
+  const Item row1[] = {{"Level", labelColour(SafetyLabel::kLevel)},
+                       {"Inclined", labelColour(SafetyLabel::kInclined)},
+                       {"Non-ground", labelColour(SafetyLabel::kNonGround)},
+                       {"Unknown", labelColour(SafetyLabel::kUnknown)},
+                       {"Unexamined", labelColour(SafetyLabel::kUnexamined)},
+                       {"Drop-off edge", kDropOffColour}};
+  const Item row2[] = {{"TP", outcomeColour(ssm::CellOutcome::kTruePositive)},
+                       {"TN", outcomeColour(ssm::CellOutcome::kTrueNegative)},
+                       {"FP", outcomeColour(ssm::CellOutcome::kFalsePositive)},
+                       {"FN", outcomeColour(ssm::CellOutcome::kFalseNegative)},
+                       {"unclassified", outcomeColour(ssm::CellOutcome::kUnclassified)}};
+  auto draw = [&](const Item* items, int n, int y) {
+    int x = 6;
+    for (int i = 0; i < n; ++i) {
+      cv::rectangle(out, cv::Rect(x, y, 14, 14), cv::Scalar(items[i].c), cv::FILLED);
+      cv::rectangle(out, cv::Rect(x, y, 14, 14), cv::Scalar(90, 90, 90), 1);
+      cv::putText(out, items[i].name, cv::Point(x + 18, y + 12), cv::FONT_HERSHEY_SIMPLEX, 0.42,
+                  cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+      x += 28 + 8 * static_cast<int>(std::string(items[i].name).size());
+    }
+  };
+  draw(row1, 6, 6);
+  draw(row2, 5, 30);
+  return out;
+}
+
+cv::Mat mapBesideGroundTruth(const ssm::SafetyMap& map, const ssm::LabelGrid& gt,
+                             const std::vector<ssm::CellOutcome>& outcomes,
+                             const Eigen::Vector3d& robot, double yaw, const std::string& title) {
+  cv::Mat a = panel(map, [&](int, int, int k) {
+    return map.drop_off.size() == map.labels.size() && map.drop_off[k] ? kDropOffColour
+                                                                       : labelColour(map.labels[k]);
+  });
+  cv::Mat b = panel(map, [&](int u, int v, int) { return labelColour(gt.at(u, v)); });
+  cv::Mat c = panel(map, [&](int, int, int k) {
+    return k < static_cast<int>(outcomes.size()) ? outcomeColour(outcomes[k])
+                                                 : outcomeColour(ssm::CellOutcome::kUnclassified);
+  });
+  for (cv::Mat* m : {&a, &b, &c})
+    drawRobot(m, map, robot, yaw);
+  std::vector<cv::Mat> row = {titled(a, "safety map: " + title), titled(b, "ground truth"),
+                              titled(c, "errors (unsafe = positive)")};
+  cv::Mat sep(row[0].rows, 6, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat out;
+  cv::hconcat(std::vector<cv::Mat>{row[0], sep, row[1], sep, row[2]}, out);
+  cv::Mat full;
+  cv::vconcat(out, legend(out.cols), full);
+  return full;
+}
+
+// The hybrid 3D model of 000 Fig. 4(b): occupied voxels of Non-ground cells as grey cubes, safe
+// segments as their planes over their cells (Level green, Inclined yellow), rendered with a
+// painter's algorithm from behind and above the robot.
+cv::Mat render3dModel(const ssm::SafetyMapper& mapper, const Eigen::Vector3d& robot, double yaw) {
+  const ssm::SafetyMap& map = mapper.safetyMap();
+  const ssm::VoxelGrid& grid = mapper.grid();
+  const double l = grid.config().voxel_size;
+  struct Face {
+    std::array<Eigen::Vector3d, 4> p;
+    cv::Vec3b colour;
+    Eigen::Vector3d normal;
+    double depth = 0.0;
+  };
+  std::vector<Face> faces;
+  const Eigen::Vector3d fwd(std::cos(yaw), std::sin(yaw), 0.0);
+  const Eigen::Vector3d eye = robot - 4.5 * fwd + Eigen::Vector3d(0, 0, 5.0);
+  const Eigen::Vector3d target = robot + 2.5 * fwd;
+  const Eigen::Vector3d zc = (target - eye).normalized();
+  const Eigen::Vector3d xc = zc.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d yc = zc.cross(xc);
+  const double top = robot.z() + mapper.config().height_map.robot_height;
+
+  for (int k = 0; k < map.width * map.height; ++k) {
+    const int u = map.min_u + k % map.width, v = map.min_v + k / map.width;
+    const SafetyLabel lab = map.labels[k];
+    const Eigen::Vector3d cc(u * l, v * l, 0.0);
+    if (ssm::isSafe(lab) && map.segment[k] >= 0 &&
+        map.segment[k] < static_cast<int>(map.segments.size())) {
+      const ssm::GroundPlane& pl = map.segments[map.segment[k]].plane;
+      if (!pl.valid) continue;
+      Face f;
+      const double h = 0.5 * l;
+      const double dx[4] = {-h, h, h, -h}, dy[4] = {-h, -h, h, h};
+      for (int i = 0; i < 4; ++i) {
+        const double x = cc.x() + dx[i], y = cc.y() + dy[i];
+        f.p[i] = Eigen::Vector3d(x, y, pl.heightAt(x, y));
+      }
+      f.normal = pl.normal;
+      f.colour = lab == SafetyLabel::kLevel ? cv::Vec3b(60, 200, 60) : cv::Vec3b(0, 220, 240);
+      faces.push_back(f);
+    } else if (lab == SafetyLabel::kNonGround) {
+      const ssm::VoxelIndex gmin = grid.minIndex();
+      for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
+        const ssm::VoxelIndex i{u, v, w};
+        if (!grid.isOccupied(i) || w * l > top) continue;
+        const Eigen::Vector3d c(u * l, v * l, w * l);
+        // Six faces; skip those between two occupied voxels and those facing away.
+        const int du[6] = {1, -1, 0, 0, 0, 0}, dv[6] = {0, 0, 1, -1, 0, 0},
+                  dw[6] = {0, 0, 0, 0, 1, -1};
+        for (int fi = 0; fi < 6; ++fi) {
+          const Eigen::Vector3d n(du[fi], dv[fi], dw[fi]);
+          if (grid.isOccupied({u + du[fi], v + dv[fi], w + dw[fi]})) continue;
+          const Eigen::Vector3d fc = c + 0.5 * l * n;
+          if ((eye - fc).dot(n) <= 0.0) continue;
+          Eigen::Vector3d a1, a2;
+          if (fi < 2) {
+            a1 = Eigen::Vector3d::UnitY();
+            a2 = Eigen::Vector3d::UnitZ();
+          } else if (fi < 4) {
+            a1 = Eigen::Vector3d::UnitX();
+            a2 = Eigen::Vector3d::UnitZ();
+          } else {
+            a1 = Eigen::Vector3d::UnitX();
+            a2 = Eigen::Vector3d::UnitY();
+          }
+          Face f;
+          const double h = 0.5 * l;
+          f.p = {fc - h * a1 - h * a2, fc + h * a1 - h * a2, fc + h * a1 + h * a2,
+                 fc - h * a1 + h * a2};
+          f.normal = n;
+          f.colour = cv::Vec3b(150, 150, 150);
+          faces.push_back(f);
+        }
+      }
+    }
+  }
+  const int W = 960, H = 720;
+  const double focal = 700.0;
+  cv::Mat img(H, W, CV_8UC3, cv::Scalar(250, 245, 240));
+  for (Face& f : faces) {
+    f.depth = 0.0;
+    for (const auto& p : f.p)
+      f.depth += 0.25 * (p - eye).dot(zc);
+  }
+  std::sort(faces.begin(), faces.end(),
+            [](const Face& a, const Face& b) { return a.depth > b.depth; });
+  const Eigen::Vector3d light = Eigen::Vector3d(-0.4, -0.3, 1.0).normalized();
+  for (const Face& f : faces) {
+    std::vector<cv::Point> poly;
+    bool ok = true;
+    for (const auto& p : f.p) {
+      const Eigen::Vector3d q = p - eye;
+      const double z = q.dot(zc);
+      if (z < 0.2) {
+        ok = false;
+        break;
+      }
+      poly.emplace_back(static_cast<int>(W / 2 + focal * q.dot(xc) / z),
+                        static_cast<int>(H / 2 + focal * q.dot(yc) / z));
+    }
+    if (!ok) continue;
+    const double shade = 0.55 + 0.45 * std::abs(f.normal.dot(light));
+    const cv::Scalar col(f.colour[0] * shade, f.colour[1] * shade, f.colour[2] * shade);
+    cv::fillConvexPoly(img, poly, col, cv::LINE_AA);
+    cv::polylines(img, poly, true, col * 0.8, 1, cv::LINE_AA);
+  }
+  // The robot: a red marker at its base.
+  const Eigen::Vector3d q = robot - eye;
+  if (q.dot(zc) > 0.2) {
+    cv::circle(img,
+               cv::Point(static_cast<int>(W / 2 + focal * q.dot(xc) / q.dot(zc)),
+                         static_cast<int>(H / 2 + focal * q.dot(yc) / q.dot(zc))),
+               8, cv::Scalar(0, 0, 255), cv::FILLED, cv::LINE_AA);
+  }
+  cv::putText(img,
+              "hybrid 3D model (000 Fig. 4(b)): Level planes green, Inclined yellow, Non-ground "
+              "voxels grey",
+              cv::Point(10, 24), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1,
+              cv::LINE_AA);
+  return img;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bag reading
+
+struct StereoPair {
+  sensor_msgs::ImageConstPtr left, right;
+  sensor_msgs::CameraInfoConstPtr left_info, right_info;
+};
+
+std::string cameraModelOf(const sensor_msgs::CameraInfo& l, const sensor_msgs::CameraInfo& r,
+                          ssm::StereoCameraModel* out) {
+  image_geometry::StereoCameraModel m;
+  if (!m.fromCameraInfo(l, r)) return "camera_info pair is not a valid stereo model";
+  ssm::StereoCameraModel c;
+  c.fx = m.left().fx();
+  c.fy = m.left().fy();
+  c.cx = m.left().cx();
+  c.cy = m.left().cy();
+  c.cx_right = m.right().cx();
+  c.baseline = m.baseline();
+  c.width = static_cast<int>(l.width);
+  c.height = static_cast<int>(l.height);
+  const std::string e = c.validate();
+  if (!e.empty()) return e;
+  *out = c;
+  return "";
+}
+
+bool toMat(const sensor_msgs::ImageConstPtr& msg, cv::Mat* out, std::string* err) {
+  try {
+    cv_bridge::CvImageConstPtr cv = cv_bridge::toCvShare(msg);
+    if (cv->image.depth() == CV_8U &&
+        (cv->image.channels() == 1 || cv->image.channels() == 3 || cv->image.channels() == 4)) {
+      *out = cv->image;
+    } else {
+      *out = cv_bridge::toCvCopy(msg, "mono8")->image;
+    }
+    return true;
+  } catch (const std::exception& e) {
+    *err = std::string("image: ") + e.what();
+    return false;
+  }
+}
+
+// Loads /tf and /tf_static of a bag into a buffer.
+std::string fillTf(rosbag::Bag& bag, tf2::BufferCore* tf) {
+  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static"}));
+  std::size_t n = 0;
+  for (const rosbag::MessageInstance& m : view) {
+    auto msg = m.instantiate<tf2_msgs::TFMessage>();
+    if (!msg) continue;
+    const bool is_static = m.getTopic() == "/tf_static";
+    for (const auto& t : msg->transforms) {
+      tf->setTransform(t, "bag", is_static);
+      ++n;
+    }
+  }
+  return n > 0 ? "" : "no /tf or /tf_static in the bag";
+}
+
+double yawOf(const Eigen::Isometry3d& T_fixed_sensor) {
+  // Heading of the optical axis projected on the ground.
+  const Eigen::Vector3d z = T_fixed_sensor.linear() * Eigen::Vector3d::UnitZ();
+  return std::atan2(z.y(), z.x());
+}
+
+bool boardInView(const ssm::BoardBox& b, const Eigen::Isometry3d& T_fixed_sensor,
+                 const ssm::StereoCameraModel& cam) {
+  const Eigen::Vector3d p = T_fixed_sensor.inverse() * b.center;
+  if (p.z() <= 0.1) return false;
+  const double x = cam.fx * p.x() / p.z() + cam.cx, y = cam.fy * p.y() / p.z() + cam.cy;
+  return x >= 0 && x < cam.width && y >= 0 && y < cam.height;
+}
+
+double distanceToBoardFace(const ssm::BoardBox& b, const Eigen::Vector3d& camera) {
+  // Distance along the horizontal from the optical centre to the nearer face of the board.
+  int thin = 0;
+  for (int k = 1; k < 3; ++k)
+    if (b.half_size[k] < b.half_size[thin]) thin = k;
+  const Eigen::Vector3d n = b.rotation.col(thin);
+  Eigen::Vector3d d = b.center - camera;
+  d.z() = 0.0;
+  return std::abs(d.dot(n)) - b.half_size[thin];
+}
+
+// ---------------------------------------------------------------------------------------------
+// Offline evaluation: the core on each stereo pair of each dataset, one mapper per decr value.
+
+struct MapperSlot {
+  std::unique_ptr<ssm::StereoFrameProcessor> processor;
+  DatasetResult* result = nullptr;
+};
+
+void evaluateFrameMap(const Dataset& ds, const ssm::SafetyMap& map, int frame, double stamp,
+                      bool protocol_frame, FrameRecord* rec, DatasetResult* res,
+                      std::vector<ssm::CellOutcome>* outcomes) {
+  rec->robot_segment = map.robot_segment >= 0;
+  const std::string e = ssm::countConfusion(map, ds.gt, &rec->counts, outcomes);
+  if (!e.empty()) {
+    ++res->problems["confusion: " + e];
+    return;
+  }
+  res->sum += rec->counts;
+  if (rec->robot_segment) {
+    res->seeded += rec->counts;
+  } else {
+    ++res->without_robot_segment;
+  }
+  (void)stamp;
+  for (const ssm::SegmentInfo& s : map.segments) {
+    if (!ssm::isSafe(s.label) || !s.plane.valid) continue;
+    const ssm::PlaneAccuracy a = ssm::comparePlane(s.plane, s.cells, map, ds.planes);
+    if (!a.matched) continue;
+    PlaneSample p;
+    p.frame = frame;
+    p.reference = ds.planes[a.reference].name;
+    p.angle_deg = a.angle_deg;
+    p.distance = a.mean_distance;
+    p.cells = a.cells;
+    p.label = s.label;
+    res->planes_all.push_back(p);
+    if (protocol_frame) res->planes_protocol.push_back(p);
+  }
+}
+
+std::vector<int> chooseFrames(int total, int count, unsigned seed) {
+  std::vector<int> all(total);
+  std::iota(all.begin(), all.end(), 0);
+  std::mt19937 rng(seed);
+  std::shuffle(all.begin(), all.end(), rng);
+  all.resize(std::min(total, count));
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+std::string writeFrameCsv(const std::string& path, const DatasetResult& r, const std::string& run) {
+  std::ofstream f(path);
+  if (!f) return "cannot write " + path;
+  f << "# " << r.name << " " << run << ": one row per stereo pair\n";
+  f << "frame,stamp,status,robot_segment,tp,fp,fn,tn,unclassified_in_map,unclassified_in_gt,points";
+  for (const char* s : kStageNames)
+    f << "," << s << "_ms";
+  for (const auto& l : r.latency)
+    f << ",coverage_" << l.board;
+  f << "\n" << std::setprecision(10);
+  for (std::size_t i = 0; i < r.frames.size(); ++i) {
+    const FrameRecord& fr = r.frames[i];
+    f << fr.index << "," << fr.stamp << "," << fr.status << "," << (fr.robot_segment ? 1 : 0) << ","
+      << fr.counts.tp << "," << fr.counts.fp << "," << fr.counts.fn << "," << fr.counts.tn << ","
+      << fr.counts.unclassified_in_map << "," << fr.counts.unclassified_in_gt << "," << fr.points;
+    f << std::setprecision(4);
+    for (double m : fr.ms)
+      f << "," << m;
+    for (const auto& l : r.latency) {
+      const int k = static_cast<int>(i) - l.appear_frame;
+      f << ",";
+      if (l.appear_frame >= 0 && k >= 0 && k < static_cast<int>(l.coverage.size()))
+        f << l.coverage[k];
+    }
+    f << std::setprecision(10) << "\n";
+  }
+  return "";
+}
+
+std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorConfig& base,
+                            const std::vector<Dataset>& datasets, std::vector<Run>* runs) {
+  runs->clear();
+  for (int d : opt.decr) {
+    Run r;
+    r.decr = d;
+    r.label = "decr=" + std::to_string(d);
+    runs->push_back(r);
+  }
+  makeDirs(opt.out + "/maps");
+  makeDirs(opt.out + "/frames");
+  bool model_written = !opt.model;
+
+  for (const Dataset& ds : datasets) {
+    const Clock::time_point t_start = Clock::now();
+    std::vector<MapperSlot> slots(opt.decr.size());
+    for (std::size_t i = 0; i < opt.decr.size(); ++i) {
+      ssm::StereoFrameProcessorConfig c = base;
+      c.mapper.grid.decr = opt.decr[i];
+      slots[i].processor = std::make_unique<ssm::StereoFrameProcessor>(c);
+      (*runs)[i].datasets.emplace_back();
+      slots[i].result = &(*runs)[i].datasets.back();
+      slots[i].result->name = ds.name;
+      slots[i].result->latency_only = ds.latency_only;
+      for (const Board& b : ds.boards) {
+        LatencyResult l;
+        l.board = b.name;
+        slots[i].result->latency.push_back(l);
+      }
+    }
+
+    rosbag::Bag bag;
+    try {
+      bag.open(ds.bag, rosbag::bagmode::Read);
+    } catch (const std::exception& e) {
+      return "cannot open " + ds.bag + ": " + e.what();
+    }
+    const std::string ns = "/" + opt.camera;
+    const std::string t_left = ns + "/left/image_rect", t_right = ns + "/right/image_rect";
+    const std::string t_linfo = ns + "/left/camera_info", t_rinfo = ns + "/right/camera_info";
+    rosbag::View all(bag);
+    const double bag_seconds = (all.getEndTime() - all.getBeginTime()).toSec();
+    tf2::BufferCore tf(ros::Duration(std::max(60.0, bag_seconds + 60.0)));
+    std::string e = fillTf(bag, &tf);
+    if (!e.empty()) return ds.bag + ": " + e;
+    int pairs_total = static_cast<int>(
+        rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{t_left})).size());
+    if (pairs_total == 0) return ds.bag + ": no " + t_left;
+    if (opt.max_frames > 0) pairs_total = std::min<long>(pairs_total, opt.max_frames);
+
+    // Frames whose planes enter the paper's protocol (000 Sec. VII-C: 5 random frames) and
+    // frames whose maps are drawn.
+    const std::vector<int> protocol = chooseFrames(pairs_total, opt.plane_frames, opt.seed);
+    std::set<int> protocol_pending(protocol.begin(), protocol.end());
+    std::set<int> image_pending;
+    for (int k = 1; k <= opt.images; ++k)
+      image_pending.insert(k * pairs_total / (opt.images + 1));
+
+    rosbag::View view(
+        bag, rosbag::TopicQuery(std::vector<std::string>{t_left, t_right, t_linfo, t_rinfo}));
+    std::map<ros::Time, StereoPair> pending;
+    sensor_msgs::CameraInfoConstPtr last_linfo, last_rinfo;
+    int pair_index = -1;
+    bool any_protocol_due = false, any_image_due = false;
+    std::vector<ssm::CellOutcome> outcomes;
+
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      ros::Time stamp;
+      if (topic == t_linfo || topic == t_rinfo) {
+        auto info = m.instantiate<sensor_msgs::CameraInfo>();
+        if (!info) continue;
+        (topic == t_linfo ? last_linfo : last_rinfo) = info;
+        continue;
+      }
+      auto img = m.instantiate<sensor_msgs::Image>();
+      if (!img) continue;
+      stamp = img->header.stamp;
+      StereoPair& p = pending[stamp];
+      (topic == t_left ? p.left : p.right) = img;
+      if (!p.left || !p.right) continue;
+      const StereoPair pair = p;
+      pending.erase(pending.begin(), pending.upper_bound(stamp));  // this and older incomplete ones
+      ++pair_index;
+      if (opt.max_frames > 0 && pair_index >= opt.max_frames) break;
+      if (protocol_pending.count(pair_index)) any_protocol_due = true;
+      if (image_pending.count(pair_index)) any_image_due = true;
+      if (pair_index % opt.every != 0) continue;
+      for (auto& s : slots)
+        ++s.result->pairs;
+
+      auto reject = [&](const std::string& why) {
+        for (auto& s : slots) {
+          ++s.result->rejected;
+          ++s.result->problems[why];
+          FrameRecord rec;
+          rec.index = pair_index;
+          rec.stamp = stamp.toSec();
+          rec.status = "rejected";
+          s.result->frames.push_back(rec);
+        }
+      };
+      if (!last_linfo || !last_rinfo) {
+        reject("no camera_info yet");
+        continue;
+      }
+      ssm::StereoCameraModel cam;
+      e = cameraModelOf(*last_linfo, *last_rinfo, &cam);
+      if (!e.empty()) {
+        reject("camera model: " + e);
+        continue;
+      }
+      Eigen::Isometry3d T_fixed_sensor;
+      Eigen::Vector3d robot;
+      try {
+        T_fixed_sensor = tf2::transformToEigen(
+            tf.lookupTransform(opt.fixed_frame, pair.left->header.frame_id, stamp));
+        const auto base = tf.lookupTransform(opt.fixed_frame, opt.base_frame, stamp);
+        robot = Eigen::Vector3d(base.transform.translation.x, base.transform.translation.y,
+                                base.transform.translation.z);
+      } catch (const tf2::TransformException& ex) {
+        reject(std::string("tf: ") + ex.what());
+        continue;
+      }
+      cv::Mat left, right;
+      if (!toMat(pair.left, &left, &e) || !toMat(pair.right, &right, &e)) {
+        reject(e);
+        continue;
+      }
+
+      for (std::size_t i = 0; i < slots.size(); ++i) {
+        MapperSlot& s = slots[i];
+        DatasetResult& res = *s.result;
+        ssm::StereoFrameResult fr;
+        std::string err;
+        bool ok;
+        if (i == 0) {
+          ok = s.processor->processImages(left, right, cam, T_fixed_sensor.cast<float>(),
+                                          robot.cast<float>(), &fr, &err);
+        } else {
+          // Same disparity image as the first mapper: only the grid's sensor model differs.
+          const cv::Mat& disp = slots[0].processor->disparity();
+          if (disp.empty()) {
+            ok = false;
+            err = "no disparity";
+          } else {
+            ok = s.processor->processDisparity(disp, cam, T_fixed_sensor.cast<float>(),
+                                               robot.cast<float>(), &fr, &err);
+          }
+        }
+        FrameRecord rec;
+        rec.index = pair_index;
+        rec.stamp = stamp.toSec();
+        rec.points = fr.points;
+        rec.status =
+            ok ? "integrated"
+               : (fr.mapper.status == ssm::FrameStatus::kStationary ? "stationary" : "rejected");
+        if (ok) {
+          ++res.integrated;
+          const ssm::SafetyMap& map = s.processor->mapper().safetyMap();
+          const bool protocol_frame = any_protocol_due;
+          evaluateFrameMap(ds, map, pair_index, rec.stamp, protocol_frame && !ds.latency_only, &rec,
+                           &res, &outcomes);
+          if (protocol_frame) res.protocol_frames.push_back(pair_index);
+          const double disparity_ms =
+              i == 0 ? fr.timings.disparity_ms : slots[0].result->frames.back().ms[0];
+          const double values[kStages] = {
+              disparity_ms,
+              fr.timings.reproject_ms,
+              fr.timings.mapper.integrate_ms,
+              fr.timings.mapper.height_map_ms,
+              fr.timings.mapper.segmentation_ms,
+              fr.timings.mapper.plane_fit_ms,
+              fr.timings.mapper.labelling_ms,
+              fr.timings.mapper.total_ms,
+              i == 0 ? fr.timings.total_ms : disparity_ms + fr.timings.total_ms};
+          for (int k = 0; k < kStages; ++k) {
+            rec.ms[k] = values[k];
+            res.stage_ms[k].add(values[k]);
+          }
+          if (any_image_due && opt.images > 0) {
+            const std::string name = ds.name + "_" + (*runs)[i].label.substr(0, 4) +
+                                     std::to_string(opt.decr[i]) + "_frame" +
+                                     std::to_string(pair_index) + ".png";
+            char title[96];
+            std::snprintf(title, sizeof(title), "%s frame %d, decr %d", ds.name.c_str(), pair_index,
+                          opt.decr[i]);
+            cv::imwrite(
+                opt.out + "/maps/" + name,
+                mapBesideGroundTruth(map, ds.gt, outcomes, robot, yawOf(T_fixed_sensor), title));
+            res.images.push_back("maps/" + name);
+          }
+        } else {
+          if (fr.mapper.status == ssm::FrameStatus::kStationary) {
+            ++res.stationary;
+          } else {
+            ++res.rejected;
+            ++res.problems[err];
+          }
+          if (i == 0) rec.ms[0] = fr.timings.disparity_ms;
+        }
+        // Frame latency (000 Sec. VII-B): counted in camera frames from the board's appearance;
+        // a frame the mapper skipped keeps the previous grid.
+        for (std::size_t b = 0; b < ds.boards.size(); ++b) {
+          LatencyResult& l = res.latency[b];
+          if (l.appear_frame < 0) {
+            if (!boardInView(ds.boards[b].box, T_fixed_sensor, cam)) continue;
+            l.appear_frame = static_cast<int>(res.frames.size());
+            l.start_distance = distanceToBoardFace(ds.boards[b].box, T_fixed_sensor.translation());
+          }
+          l.coverage.push_back(
+              ssm::boardWidthCoverage(s.processor->mapper().grid(), ds.boards[b].box).fraction());
+        }
+        res.frames.push_back(rec);
+      }
+      if (slots[0].result->frames.back().status == "integrated") {
+        any_protocol_due = false;
+        any_image_due = false;
+      }
+      if (!opt.quiet && pair_index % 50 == 0) {
+        const ssm::ConfusionCounts& c = slots[0].result->sum;
+        const ssm::ErrorRates r = ssm::errorRates(c);
+        std::fprintf(stderr, "  %s pair %d/%d: %d maps, FN %.2f %% FP %.2f %% (decr %d)\n",
+                     ds.name.c_str(), pair_index, pairs_total, slots[0].result->integrated,
+                     100 * r.fn, 100 * r.fp, opt.decr[0]);
+      }
+    }
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+      DatasetResult& res = *slots[i].result;
+      res.bag_seconds = bag_seconds;
+      res.wall_seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
+      for (LatencyResult& l : res.latency) {
+        l.frames_available = static_cast<int>(l.coverage.size());
+        l.frames_to_50 = ssm::framesUntilCoverage(l.coverage, 0.5);
+        l.frames_to_90 = ssm::framesUntilCoverage(l.coverage, 0.9);
+      }
+      const std::string csv = "frames/" + ds.name + "_decr" + std::to_string(opt.decr[i]) + ".csv";
+      e = writeFrameCsv(opt.out + "/" + csv, res, (*runs)[i].label);
+      if (!e.empty()) return e;
+    }
+    if (!model_written && !ds.latency_only) {
+      // One picture of the 3D model: the last map of the first dataset with the first decr.
+      const ssm::SafetyMapper& mapper = slots[0].processor->mapper();
+      if (mapper.framesIntegrated() > 0) {
+        const ssm::SafetyMap& map = mapper.safetyMap();
+        const Eigen::Vector3d robot(map.robot_u * map.resolution, map.robot_v * map.resolution,
+                                    0.0);
+        double yaw = 0.0;
+        try {
+          const auto t = tf.lookupTransform(opt.fixed_frame, opt.base_frame, ros::Time(0));
+          yaw = std::atan2(2.0 * (t.transform.rotation.w * t.transform.rotation.z),
+                           1.0 - 2.0 * t.transform.rotation.z * t.transform.rotation.z);
+          cv::imwrite(
+              opt.out + "/model_3d.png",
+              render3dModel(mapper,
+                            Eigen::Vector3d(t.transform.translation.x, t.transform.translation.y,
+                                            t.transform.translation.z),
+                            yaw));
+        } catch (const tf2::TransformException&) {
+          cv::imwrite(opt.out + "/model_3d.png", render3dModel(mapper, robot, yaw));
+        }
+        model_written = true;
+      }
+    }
+  }
+  return "";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Recorded mode: the SafetyMap messages the nodelets published while the bag was replayed.
+
+ssm::SafetyMap fromMessage(const stereo_safety_map::SafetyMapMsg& msg) {
+  ssm::SafetyMap m;
+  const double res = msg.info.resolution;
+  m.resolution = res;
+  m.width = static_cast<int>(msg.info.width);
+  m.height = static_cast<int>(msg.info.height);
+  if (res > 0.0) {
+    m.min_u = static_cast<int>(std::lround(msg.info.origin.position.x / res + 0.5));
+    m.min_v = static_cast<int>(std::lround(msg.info.origin.position.y / res + 0.5));
+    m.robot_u = static_cast<int>(std::lround(msg.robot_position.x / res));
+    m.robot_v = static_cast<int>(std::lround(msg.robot_position.y / res));
+  }
+  m.robot_segment = msg.robot_segment;
+  m.labels.resize(msg.labels.size());
+  for (std::size_t k = 0; k < msg.labels.size(); ++k)
+    m.labels[k] =
+        msg.labels[k] <= 4 ? static_cast<SafetyLabel>(msg.labels[k]) : SafetyLabel::kUnknown;
+  m.drop_off = msg.drop_off;
+  m.segment = msg.segment;
+  m.segments.resize(msg.segments.size());
+  for (std::size_t i = 0; i < msg.segments.size(); ++i) {
+    const auto& g = msg.segments[i];
+    ssm::SegmentInfo& s = m.segments[i];
+    s.id = g.id;
+    s.label = g.label <= 4 ? static_cast<SafetyLabel>(g.label) : SafetyLabel::kUnknown;
+    s.reachable = g.reachable;
+    s.indexed_height = g.indexed_height;
+    s.plane.valid = g.plane_valid;
+    s.plane.a = g.a;
+    s.plane.b = g.b;
+    s.plane.c = g.c;
+    s.plane.normal = Eigen::Vector3d(g.normal.x, g.normal.y, g.normal.z);
+    s.plane.slope_deg = g.slope_deg;
+  }
+  if (m.segment.size() == m.labels.size()) {
+    for (std::size_t k = 0; k < m.segment.size(); ++k) {
+      const int s = m.segment[k];
+      if (s >= 0 && s < static_cast<int>(m.segments.size()))
+        m.segments[s].cells.push_back(static_cast<int>(k));
+    }
+  }
+  return m;
+}
+
+std::string evaluateRecorded(const Options& opt, const Dataset& ds, std::vector<Run>* runs) {
+  runs->assign(1, Run());
+  Run& run = runs->front();
+  run.label = "recorded";
+  run.decr = -1;
+  run.datasets.emplace_back();
+  DatasetResult& res = run.datasets.back();
+  res.name = ds.name;
+  makeDirs(opt.out + "/maps");
+  makeDirs(opt.out + "/frames");
+
+  rosbag::Bag bag;
+  try {
+    bag.open(opt.recorded, rosbag::bagmode::Read);
+  } catch (const std::exception& e) {
+    return "cannot open " + opt.recorded + ": " + e.what();
+  }
+  // Topics by type, so that any namespace works.
+  std::vector<std::string> map_topics, timing_topics;
+  {
+    rosbag::View all(bag);
+    for (const rosbag::ConnectionInfo* c : all.getConnections()) {
+      if (c->datatype == "stereo_safety_map/SafetyMap") map_topics.push_back(c->topic);
+      if (c->datatype == "stereo_safety_map/StageTimings") timing_topics.push_back(c->topic);
+    }
+  }
+  std::sort(map_topics.begin(), map_topics.end());
+  map_topics.erase(std::unique(map_topics.begin(), map_topics.end()), map_topics.end());
+  if (map_topics.empty()) return opt.recorded + ": no stereo_safety_map/SafetyMap messages";
+  if (map_topics.size() > 1) map_topics.resize(1);
+
+  // Stage timings by stamp.
+  std::map<ros::Time, stereo_safety_map::StageTimingsMsg> timings;
+  stereo_safety_map::StageTimingsMsg last_timing;
+  if (!timing_topics.empty()) {
+    rosbag::View tv(bag, rosbag::TopicQuery(timing_topics));
+    for (const rosbag::MessageInstance& m : tv) {
+      auto t = m.instantiate<stereo_safety_map::StageTimingsMsg>();
+      if (!t) continue;
+      timings[t->header.stamp] = *t;
+      last_timing = *t;
+    }
+  }
+  rosbag::View mv(bag, rosbag::TopicQuery(map_topics));
+  const int total = static_cast<int>(mv.size());
+  const std::vector<int> protocol = chooseFrames(total, opt.plane_frames, opt.seed);
+  std::set<int> protocol_set(protocol.begin(), protocol.end());
+  std::set<int> image_set;
+  for (int k = 1; k <= opt.images && total > 0; ++k)
+    image_set.insert(k * total / (opt.images + 1));
+  int index = -1;
+  std::vector<ssm::CellOutcome> outcomes;
+  for (const rosbag::MessageInstance& m : mv) {
+    auto msg = m.instantiate<stereo_safety_map::SafetyMapMsg>();
+    if (!msg) continue;
+    ++index;
+    ++res.pairs;
+    const ssm::SafetyMap map = fromMessage(*msg);
+    FrameRecord rec;
+    rec.index = index;
+    rec.stamp = msg->header.stamp.toSec();
+    rec.status = "integrated";
+    ++res.integrated;
+    evaluateFrameMap(ds, map, index, rec.stamp, protocol_set.count(index) > 0, &rec, &res,
+                     &outcomes);
+    if (protocol_set.count(index)) res.protocol_frames.push_back(index);
+    auto t = timings.find(msg->header.stamp);
+    if (t != timings.end()) {
+      const double values[kStages] = {kNaN,
+                                      kNaN,
+                                      t->second.integrate_ms,
+                                      t->second.height_map_ms,
+                                      t->second.segmentation_ms,
+                                      t->second.plane_fit_ms,
+                                      t->second.labelling_ms,
+                                      t->second.total_ms,
+                                      kNaN};
+      for (int k = 0; k < kStages; ++k) {
+        rec.ms[k] = values[k];
+        if (std::isfinite(values[k])) res.stage_ms[k].add(values[k]);
+      }
+    }
+    if (image_set.count(index)) {
+      const std::string name = ds.name + "_recorded_map" + std::to_string(index) + ".png";
+      char title[96];
+      std::snprintf(title, sizeof(title), "%s, recorded map %d", ds.name.c_str(), index);
+      cv::imwrite(opt.out + "/maps/" + name,
+                  mapBesideGroundTruth(map, ds.gt, outcomes,
+                                       Eigen::Vector3d(msg->robot_position.x, msg->robot_position.y,
+                                                       msg->robot_position.z),
+                                       kNaN, title));
+      res.images.push_back("maps/" + name);
+    }
+    res.frames.push_back(rec);
+  }
+  res.stationary = static_cast<int>(last_timing.frames_skipped_stationary);
+  if (last_timing.frames_dropped > 0)
+    res.problems["frames dropped by the nodelet (one-slot queue)"] =
+        static_cast<int>(last_timing.frames_dropped);
+  if (last_timing.frames_rejected > 0)
+    res.problems["frames rejected by the nodelet"] = static_cast<int>(last_timing.frames_rejected);
+  res.rejected = static_cast<int>(last_timing.frames_dropped + last_timing.frames_rejected);
+  const std::string e =
+      writeFrameCsv(opt.out + "/frames/" + ds.name + "_recorded.csv", res, "recorded");
+  return e;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Output: JSON and Markdown
+
+class Json {
+ public:
+  std::string str() const { return os_.str(); }
+  Json& open(char c) {
+    sep();
+    os_ << c;
+    first_ = true;
+    return *this;
+  }
+  Json& close(char c) {
+    os_ << c;
+    first_ = false;
+    return *this;
+  }
+  Json& key(const std::string& k) {
+    sep();
+    quote(k);
+    os_ << ": ";
+    first_ = true;
+    after_key_ = true;
+    return *this;
+  }
+  Json& val(double v) {
+    sep();
+    if (std::isfinite(v)) {
+      char buf[32];
+      std::snprintf(buf, sizeof(buf), "%.6g", v);
+      os_ << buf;
+    } else {
+      os_ << "null";
+    }
+    return *this;
+  }
+  Json& val(long long v) {
+    sep();
+    os_ << v;
+    return *this;
+  }
+  Json& val(int v) { return val(static_cast<long long>(v)); }
+  Json& val(std::uint64_t v) { return val(static_cast<long long>(v)); }
+  Json& val(bool v) {
+    sep();
+    os_ << (v ? "true" : "false");
+    return *this;
+  }
+  Json& val(const std::string& s) {
+    sep();
+    quote(s);
+    return *this;
+  }
+  Json& val(const char* s) { return val(std::string(s)); }
+  template <typename T>
+  Json& kv(const std::string& k, const T& v) {
+    key(k);
+    return val(v);
+  }
+
+ private:
+  void sep() {
+    if (after_key_) {
+      after_key_ = false;
+      first_ = false;
+      return;
+    }
+    if (!first_) os_ << ", ";
+    first_ = false;
+  }
+  void quote(const std::string& s) {
+    os_ << '"';
+    for (char c : s) {
+      if (c == '"' || c == '\\') {
+        os_ << '\\' << c;
+      } else if (static_cast<unsigned char>(c) < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof(buf), "\\u%04x", c);
+        os_ << buf;
+      } else {
+        os_ << c;
+      }
+    }
+    os_ << '"';
+  }
+  std::ostringstream os_;
+  bool first_ = true;
+  bool after_key_ = false;
+};
+
+void jsonMeanStd(Json& j, const std::string& k, const ssm::MeanStd& m) {
+  j.key(k).open('{').kv("mean", m.mean).kv("std", m.stddev).kv("n", m.n).close('}');
+}
+
+void jsonCounts(Json& j, const std::string& k, const ssm::ConfusionCounts& c) {
+  j.key(k).open('{');
+  j.kv("tp", c.tp).kv("fp", c.fp).kv("fn", c.fn).kv("tn", c.tn);
+  j.kv("unsafe_cells", c.unsafeCells()).kv("safe_cells", c.safeCells());
+  j.kv("unclassified_in_map", c.unclassified_in_map).kv("unclassified_in_gt", c.unclassified_in_gt);
+  j.kv("maps", c.maps).close('}');
+}
+
+void jsonRates(Json& j, const std::string& k, const ssm::ConfusionCounts& c) {
+  const ssm::ErrorRates r = ssm::errorRates(c);
+  const ssm::SafeClassScores s = ssm::safeClassScores(c);
+  j.key(k).open('{').kv("fn", r.fn).kv("fp", r.fp).kv("tp", r.tp).kv("tn", r.tn);
+  j.kv("precision", s.precision).kv("recall", s.recall).kv("f1", s.f1).close('}');
+}
+
+struct PlaneSummary {
+  ssm::MeanStd angle, distance;
+};
+PlaneSummary summarize(const std::vector<PlaneSample>& v) {
+  std::vector<double> a, d;
+  for (const auto& p : v) {
+    a.push_back(p.angle_deg);
+    d.push_back(p.distance);
+  }
+  return {ssm::meanStd(a), ssm::meanStd(d)};
+}
+
+struct RunSummary {
+  ssm::MeanStd fn, fp, tp, tn, precision, recall, f1;
+  ssm::MeanStd seeded_fn, seeded_fp;
+  PlaneSummary planes_protocol, planes_all;
+  Series stage_ms[kStages];
+  int datasets = 0;
+  int maps = 0;
+  int without_robot_segment = 0;
+  double bag_seconds = 0.0, wall_seconds = 0.0;
+};
+
+RunSummary summarize(const Run& run) {
+  RunSummary s;
+  std::vector<double> fn, fp, tp, tn, p, r, f1, sfn, sfp;
+  std::vector<PlaneSample> pp, pa;
+  for (const DatasetResult& d : run.datasets) {
+    if (d.latency_only) continue;
+    ++s.datasets;
+    s.maps += d.integrated;
+    s.without_robot_segment += d.without_robot_segment;
+    const ssm::ErrorRates e = ssm::errorRates(d.sum);
+    const ssm::SafeClassScores c = ssm::safeClassScores(d.sum);
+    const ssm::ErrorRates es = ssm::errorRates(d.seeded);
+    fn.push_back(e.fn);
+    fp.push_back(e.fp);
+    tp.push_back(e.tp);
+    tn.push_back(e.tn);
+    p.push_back(c.precision);
+    r.push_back(c.recall);
+    f1.push_back(c.f1);
+    sfn.push_back(es.fn);
+    sfp.push_back(es.fp);
+    pp.insert(pp.end(), d.planes_protocol.begin(), d.planes_protocol.end());
+    pa.insert(pa.end(), d.planes_all.begin(), d.planes_all.end());
+    for (int k = 0; k < kStages; ++k)
+      s.stage_ms[k].v.insert(s.stage_ms[k].v.end(), d.stage_ms[k].v.begin(), d.stage_ms[k].v.end());
+    s.bag_seconds += d.bag_seconds;
+    s.wall_seconds += d.wall_seconds;
+  }
+  s.fn = ssm::meanStd(fn);
+  s.fp = ssm::meanStd(fp);
+  s.tp = ssm::meanStd(tp);
+  s.tn = ssm::meanStd(tn);
+  s.precision = ssm::meanStd(p);
+  s.recall = ssm::meanStd(r);
+  s.f1 = ssm::meanStd(f1);
+  s.seeded_fn = ssm::meanStd(sfn);
+  s.seeded_fp = ssm::meanStd(sfp);
+  s.planes_protocol = summarize(pp);
+  s.planes_all = summarize(pa);
+  return s;
+}
+
+void jsonTimings(Json& j, const Series* stage_ms) {
+  j.key("timings_ms").open('{');
+  for (int k = 0; k < kStages; ++k) {
+    j.key(kStageNames[k]).open('{');
+    j.kv("mean", stage_ms[k].mean()).kv("median", stage_ms[k].quantile(0.5));
+    j.kv("p90", stage_ms[k].quantile(0.9)).kv("max", stage_ms[k].max()).close('}');
+  }
+  j.close('}');
+}
+
+struct Target {
+  std::string name;
+  double measured;
+  double limit;
+  std::string unit;
+  std::string paper;
+  bool pass() const { return std::isfinite(measured) && measured <= limit; }
+};
+
+// The issue's targets at the default parameters (decr = 1).
+std::vector<Target> targets(const std::vector<Run>& runs) {
+  std::vector<Target> t;
+  const Run* r1 = nullptr;
+  for (const Run& r : runs)
+    if (r.decr == 1 || (r.decr < 0 && r1 == nullptr)) r1 = &r;
+  if (r1 == nullptr) return t;
+  const RunSummary s = summarize(*r1);
+  if (s.datasets > 0) {
+    t.push_back({"FN rate (mean over datasets)", 100 * s.fn.mean, 1.5, "%", "3.0 +- 1.8 %"});
+    t.push_back({"FP rate (mean over datasets)", 100 * s.fp.mean, 5.0, "%", "9.3 +- 4.7 %"});
+    t.push_back({"plane normal error (paper protocol)", s.planes_protocol.angle.mean, 0.6, "deg",
+                 "1.2 +- 0.5 deg"});
+    t.push_back({"plane distance (paper protocol)", 100 * s.planes_protocol.distance.mean, 1.0,
+                 "cm", "1.9 +- 0.8 cm"});
+  }
+  // 50 % of the textured board at 5 m.
+  double best = kNaN;
+  for (const DatasetResult& d : r1->datasets) {
+    if (!d.latency_only || d.name.find("untextured") != std::string::npos) continue;
+    for (const LatencyResult& l : d.latency) {
+      if (std::isfinite(l.start_distance) && std::abs(l.start_distance - 5.0) < 0.3)
+        best = l.frames_to_50 > 0 ? l.frames_to_50 : std::numeric_limits<double>::infinity();
+    }
+  }
+  if (!std::isnan(best))
+    t.push_back({"frames to 50 % of the textured board at 5 m", best, 5.0, "frames", "8 frames"});
+  return t;
+}
+
+std::string fmtPct(double v) {
+  if (!std::isfinite(v)) return "n/a";
+  char b[32];
+  std::snprintf(b, sizeof(b), "%.1f", 100 * v);
+  return b;
+}
+std::string fmtPm(const ssm::MeanStd& m, double scale, int prec = 1) {
+  if (!std::isfinite(m.mean)) return "n/a";
+  char b[64];
+  std::snprintf(b, sizeof(b), "%.*f +- %.*f", prec, scale * m.mean, prec,
+                std::isfinite(m.stddev) ? scale * m.stddev : 0.0);
+  return b;
+}
+std::string fmt(double v, int prec = 1) {
+  if (!std::isfinite(v)) return "n/a";
+  char b[32];
+  std::snprintf(b, sizeof(b), "%.*f", prec, v);
+  return b;
+}
+
+std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConfig& config,
+                         const std::vector<Run>& runs, const std::string& command) {
+  const std::vector<Target> tg = targets(runs);
+  // ---- JSON
+  Json j;
+  j.open('{');
+  j.kv("tool", "evaluate_safety_map").kv("command", command);
+  j.kv("mode", opt.recorded.empty() ? "offline" : "recorded");
+  j.key("config").open('{');
+  const auto& g = config.mapper.grid;
+  j.kv("voxel_size", g.voxel_size).kv("incr_high", g.incr_high).kv("incr_low", g.incr_low);
+  j.kv("occ_threshold", g.occ_threshold)
+      .kv("planning_radius", config.mapper.segmentation.planning_radius);
+  j.kv("seed_radius", config.mapper.segmentation.seed_radius);
+  j.kv("every", opt.every).kv("disparity_step", config.disparity_step);
+  j.kv("matcher",
+       config.disparity.matcher == ssm::StereoMatcherType::kBlockMatching ? "BM" : "SGBM");
+  j.kv("texture_filter", config.disparity.enable_texture);
+  j.kv("plane_frames", opt.plane_frames).kv("seed", static_cast<int>(opt.seed));
+  j.kv("params_file", opt.params);
+  j.key("set").open('[');
+  for (const std::string& a : opt.sets)
+    j.val(a);
+  j.close(']');
+  j.close('}');
+  j.key("runs").open('[');
+  for (const Run& run : runs) {
+    const RunSummary s = summarize(run);
+    j.open('{').kv("label", run.label).kv("decr", run.decr);
+    j.key("summary").open('{');
+    j.kv("datasets", s.datasets)
+        .kv("maps", s.maps)
+        .kv("maps_without_robot_segment", s.without_robot_segment);
+    jsonMeanStd(j, "fn", s.fn);
+    jsonMeanStd(j, "fp", s.fp);
+    jsonMeanStd(j, "tp", s.tp);
+    jsonMeanStd(j, "tn", s.tn);
+    jsonMeanStd(j, "precision", s.precision);
+    jsonMeanStd(j, "recall", s.recall);
+    jsonMeanStd(j, "f1", s.f1);
+    jsonMeanStd(j, "fn_with_robot_segment", s.seeded_fn);
+    jsonMeanStd(j, "fp_with_robot_segment", s.seeded_fp);
+    j.key("planes_protocol").open('{');
+    jsonMeanStd(j, "angle_deg", s.planes_protocol.angle);
+    jsonMeanStd(j, "distance_m", s.planes_protocol.distance);
+    j.close('}');
+    j.key("planes_all_frames").open('{');
+    jsonMeanStd(j, "angle_deg", s.planes_all.angle);
+    jsonMeanStd(j, "distance_m", s.planes_all.distance);
+    j.close('}');
+    jsonTimings(j, s.stage_ms);
+    j.kv("bag_seconds", s.bag_seconds).kv("wall_seconds", s.wall_seconds);
+    j.kv("realtime_factor", s.wall_seconds > 0 ? s.bag_seconds / s.wall_seconds : kNaN);
+    j.close('}');
+    j.key("datasets").open('[');
+    for (const DatasetResult& d : run.datasets) {
+      j.open('{').kv("name", d.name).kv("latency_only", d.latency_only);
+      j.kv("pairs", d.pairs).kv("maps", d.integrated).kv("stationary", d.stationary);
+      j.kv("rejected", d.rejected).kv("maps_without_robot_segment", d.without_robot_segment);
+      jsonCounts(j, "counts", d.sum);
+      jsonRates(j, "rates", d.sum);
+      jsonCounts(j, "counts_with_robot_segment", d.seeded);
+      jsonRates(j, "rates_with_robot_segment", d.seeded);
+      const PlaneSummary pp = summarize(d.planes_protocol), pa = summarize(d.planes_all);
+      j.key("planes_protocol").open('{');
+      j.key("frames").open('[');
+      for (int f : d.protocol_frames)
+        j.val(f);
+      j.close(']');
+      jsonMeanStd(j, "angle_deg", pp.angle);
+      jsonMeanStd(j, "distance_m", pp.distance);
+      j.key("planes").open('[');
+      for (const PlaneSample& p : d.planes_protocol) {
+        j.open('{').kv("frame", p.frame).kv("reference", p.reference).kv("angle_deg", p.angle_deg);
+        j.kv("distance_m", p.distance)
+            .kv("cells", p.cells)
+            .kv("label", ssm::toString(p.label))
+            .close('}');
+      }
+      j.close(']').close('}');
+      j.key("planes_all_frames").open('{');
+      jsonMeanStd(j, "angle_deg", pa.angle);
+      jsonMeanStd(j, "distance_m", pa.distance);
+      j.close('}');
+      j.key("latency").open('[');
+      for (const LatencyResult& l : d.latency) {
+        j.open('{').kv("board", l.board).kv("start_distance_m", l.start_distance);
+        j.kv("textured", d.name.find("untextured") == std::string::npos);
+        j.kv("appear_frame", l.appear_frame).kv("frames_available", l.frames_available);
+        j.kv("frames_to_50", l.frames_to_50).kv("frames_to_90", l.frames_to_90);
+        j.kv("final_coverage", l.coverage.empty() ? kNaN : l.coverage.back()).close('}');
+      }
+      j.close(']');
+      jsonTimings(j, d.stage_ms);
+      j.kv("bag_seconds", d.bag_seconds).kv("wall_seconds", d.wall_seconds);
+      j.key("images").open('[');
+      for (const auto& im : d.images)
+        j.val(im);
+      j.close(']');
+      j.key("problems").open('{');
+      for (const auto& p : d.problems)
+        j.kv(p.first, p.second);
+      j.close('}');
+      j.close('}');
+    }
+    j.close(']').close('}');
+  }
+  j.close(']');
+  j.key("targets").open('[');
+  for (const Target& t : tg) {
+    j.open('{').kv("name", t.name).kv("measured", t.measured).kv("limit", t.limit);
+    j.kv("unit", t.unit).kv("paper", t.paper).kv("pass", t.pass()).close('}');
+  }
+  j.close(']');
+  j.close('}');
+  {
+    std::ofstream f(opt.out + "/metrics.json");
+    if (!f) return "cannot write " + opt.out + "/metrics.json";
+    f << j.str() << "\n";
+  }
+
+  // ---- Markdown
+  std::ostringstream md;
+  md << "# Safety map evaluation\n\n"
+     << "Made by `" << command << "` ("
+     << (opt.recorded.empty() ? "offline: the core pipeline "
+                                "on the bags, no roscore"
+                              : "recorded: maps published by the nodelets")
+     << "). Definitions: docs/evaluation.md. Rates in percent; unsafe (Non-ground) is the "
+        "positive class (000 Sec. VII-A); precision / recall / F1 are of the safe class "
+        "(001 Sec. 5).\n\n";
+  if (!tg.empty()) {
+    md << "## Targets\n\n| target | measured | limit | paper | |\n|---|---|---|---|---|\n";
+    for (const Target& t : tg)
+      md << "| " << t.name << " | " << fmt(t.measured, 2) << " " << t.unit
+         << " | <= " << fmt(t.limit, 1) << " " << t.unit << " | " << t.paper << " | "
+         << (t.pass() ? "met" : "**missed**") << " |\n";
+    md << "\n";
+  }
+  // Table II.
+  bool any_rates = false;
+  for (const Run& r : runs)
+    any_rates = any_rates || summarize(r).datasets > 0;
+  if (any_rates) {
+    md << "## Error rates averaged over datasets (000 Table II)\n\n| | ";
+    for (const Run& r : runs)
+      md << r.label << " | ";
+    md << "\n|---|";
+    for (std::size_t i = 0; i < runs.size(); ++i)
+      md << "---|";
+    md << "\n";
+    const char* rows[] = {"False negative rate (FN)",
+                          "False positive rate (FP)",
+                          "True positive rate (TP)",
+                          "True negative rate (TN)",
+                          "Precision (safe, 001)",
+                          "Recall (safe, 001)",
+                          "F1 (safe, 001)",
+                          "FN, maps with the robot's segment",
+                          "FP, maps with the robot's segment"};
+    for (int row = 0; row < 9; ++row) {
+      md << "| " << rows[row] << " | ";
+      for (const Run& r : runs) {
+        const RunSummary s = summarize(r);
+        const ssm::MeanStd* m[] = {&s.fn,     &s.fp, &s.tp,        &s.tn,       &s.precision,
+                                   &s.recall, &s.f1, &s.seeded_fn, &s.seeded_fp};
+        md << (row >= 4 && row <= 6 ? fmtPm(*m[row], 1.0, 3) : fmtPm(*m[row], 100.0)) << " | ";
+      }
+      md << "\n";
+    }
+    md << "\nPaper (decr 1 / 3 / 5): FN 3.0 / 8.5 / 11.2, FP 9.3 / 6.2 / 5.2, TP 97.0 / 91.5 / "
+          "88.8, "
+          "TN 90.7 / 93.8 / 94.8. ROC curve: fig6a_roc.png (scripts/plot_evaluation.py).\n\n";
+    for (const Run& r : runs) {
+      md << "### Per dataset, " << r.label << "\n\n"
+         << "| dataset | maps | stationary | no robot segment | unsafe cells | safe cells | FN | "
+            "FP | "
+            "TP | TN | P | R | F1 |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      for (const DatasetResult& d : r.datasets) {
+        if (d.latency_only) continue;
+        const ssm::ErrorRates e = ssm::errorRates(d.sum);
+        const ssm::SafeClassScores c = ssm::safeClassScores(d.sum);
+        md << "| " << d.name << " | " << d.integrated << " | " << d.stationary << " | "
+           << d.without_robot_segment << " | " << d.sum.unsafeCells() << " | " << d.sum.safeCells()
+           << " | " << fmtPct(e.fn) << " | " << fmtPct(e.fp) << " | " << fmtPct(e.tp) << " | "
+           << fmtPct(e.tn) << " | " << fmt(c.precision, 3) << " | " << fmt(c.recall, 3) << " | "
+           << fmt(c.f1, 3) << " |\n";
+      }
+      md << "\n";
+    }
+    // Planes.
+    md << "## Plane accuracy (000 Sec. VII-C)\n\n| run | protocol frames: angle [deg] | distance "
+          "[cm] | planes | all frames: angle [deg] | distance [cm] | planes "
+          "|\n|---|---|---|---|---|---|---|\n";
+    for (const Run& r : runs) {
+      const RunSummary s = summarize(r);
+      md << "| " << r.label << " | " << fmtPm(s.planes_protocol.angle, 1.0, 2) << " | "
+         << fmtPm(s.planes_protocol.distance, 100.0, 2) << " | " << s.planes_protocol.angle.n
+         << " | " << fmtPm(s.planes_all.angle, 1.0, 2) << " | "
+         << fmtPm(s.planes_all.distance, 100.0, 2) << " | " << s.planes_all.angle.n << " |\n";
+    }
+    md << "\nProtocol: all safe planes of " << opt.plane_frames
+       << " frames per dataset drawn at random (seed " << opt.seed
+       << "), averaged over all planes of all datasets (paper: 1.2 &plusmn; 0.5 deg, 1.9 &plusmn; "
+          "0.8 cm).\n\n";
+  }
+  // Latency.
+  bool any_latency = false;
+  for (const Run& r : runs)
+    for (const DatasetResult& d : r.datasets)
+      any_latency = any_latency || !d.latency.empty();
+  if (any_latency) {
+    md << "## Frame latency (000 Sec. VII-B)\n\nCamera frames from the board's appearance until "
+          "50 % / 90 % of its width is occupied in the 3D grid (-1: not reached before the "
+          "sequence ends; the robot stops 0.6 m from the board). Plot: fig6b_latency.png.\n\n"
+          "| run | dataset | start distance [m] | frames to 50 % | frames to 90 % | frames seen | "
+          "final coverage |\n"
+          "|---|---|---|---|---|---|---|\n";
+    for (const Run& r : runs)
+      for (const DatasetResult& d : r.datasets)
+        for (const LatencyResult& l : d.latency)
+          md << "| " << r.label << " | " << d.name << " | " << fmt(l.start_distance, 2) << " | "
+             << l.frames_to_50 << " | " << l.frames_to_90 << " | " << l.frames_available << " | "
+             << fmt(l.coverage.empty() ? kNaN : 100 * l.coverage.back(), 0) << " % |\n";
+    md << "\n";
+  }
+  // Timings.
+  md << "## Time per stage [ms] (this machine, single thread)\n\n| run | ";
+  for (const char* n : kStageNames)
+    md << n << " | ";
+  md << "real-time factor |\n|---|";
+  for (int k = 0; k <= kStages; ++k)
+    md << "---|";
+  md << "\n";
+  for (const Run& r : runs) {
+    RunSummary s = summarize(r);
+    if (s.datasets == 0) {  // latency-only runs
+      for (const DatasetResult& d : r.datasets)
+        for (int k = 0; k < kStages; ++k)
+          s.stage_ms[k].v.insert(s.stage_ms[k].v.end(), d.stage_ms[k].v.begin(),
+                                 d.stage_ms[k].v.end());
+    }
+    md << "| " << r.label << " (mean / median) | ";
+    for (int k = 0; k < kStages; ++k)
+      md << fmt(s.stage_ms[k].mean(), 1) << " / " << fmt(s.stage_ms[k].quantile(0.5), 1) << " | ";
+    md << (s.wall_seconds > 0 ? fmt(s.bag_seconds / s.wall_seconds, 2) : std::string("n/a"))
+       << " |\n";
+  }
+  md << "\nStages: disparity = matching and post-filters (shared by all decr values: the first "
+        "run's time), update = voxel grid (000: 92 ms), segmentation = Alg. 1 (000: 4 ms), "
+        "plane_fit (000: 61 ms), labelling = Alg. 2 (000: 71 ms). The real-time factor is bag "
+        "duration over wall time for all runs of a dataset together.\n\n";
+  // Images.
+  md << "## Images\n\n";
+  if (fileExists(opt.out + "/model_3d.png")) md << "![3D model](model_3d.png)\n\n";
+  for (const Run& r : runs)
+    for (const DatasetResult& d : r.datasets)
+      for (const std::string& im : d.images)
+        md << "![" << d.name << "](" << im << ")\n";
+  md << "\n";
+  // Problems.
+  bool any_problem = false;
+  for (const Run& r : runs)
+    for (const DatasetResult& d : r.datasets)
+      any_problem = any_problem || !d.problems.empty();
+  if (any_problem) {
+    md << "## Problems\n\n";
+    for (const Run& r : runs)
+      for (const DatasetResult& d : r.datasets)
+        for (const auto& p : d.problems)
+          md << "- " << r.label << " " << d.name << ": " << p.second << " x " << p.first << "\n";
+  }
+  std::ofstream f(opt.out + "/report.md");
+  if (!f) return "cannot write " + opt.out + "/report.md";
+  f << md.str();
+  return "";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parseArgs(argc, argv, &opt)) {
+    usage();
+    return 2;
+  }
+  ros::Time::init();
+  std::string command = "evaluate_safety_map";
+  for (int i = 1; i < argc; ++i)
+    command += std::string(" ") + argv[i];
+
+  ssm::StereoFrameProcessorConfig config;
+  if (!opt.params.empty()) {
+    const std::string e = loadParams(opt.params, &config);
+    if (!e.empty()) {
+      std::fprintf(stderr, "error: %s\n", e.c_str());
+      return 2;
+    }
+  }
+  for (const std::string& a : opt.sets) {
+    const std::string e = setParam(a, &config);
+    if (!e.empty()) {
+      std::fprintf(stderr, "error: %s\n", e.c_str());
+      return 2;
+    }
+  }
+  for (int d : opt.decr) {
+    ssm::StereoFrameProcessorConfig c = config;
+    c.mapper.grid.decr = d;
+    const std::string e = c.validate();
+    if (!e.empty()) {
+      std::fprintf(stderr, "error: decr %d: %s\n", d, e.c_str());
+      return 2;
+    }
+  }
+  if (!makeDirs(opt.out)) {
+    std::fprintf(stderr, "error: cannot create %s\n", opt.out.c_str());
+    return 1;
+  }
+
+  std::vector<Dataset> datasets;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const std::string& b : pass == 0 ? opt.bags : opt.latency_bags) {
+      Dataset d;
+      const std::string e = loadDataset(b, pass == 1, &d);
+      if (!e.empty()) {
+        std::fprintf(stderr, "error: %s\n", e.c_str());
+        return 1;
+      }
+      datasets.push_back(d);
+    }
+  }
+
+  std::vector<Run> runs;
+  const Clock::time_point t0 = Clock::now();
+  const std::string e = opt.recorded.empty() ? evaluateOffline(opt, config, datasets, &runs)
+                                             : evaluateRecorded(opt, datasets.front(), &runs);
+  if (!e.empty()) {
+    std::fprintf(stderr, "error: %s\n", e.c_str());
+    return 1;
+  }
+  const std::string w = writeOutputs(opt, config, runs, command);
+  if (!w.empty()) {
+    std::fprintf(stderr, "error: %s\n", w.c_str());
+    return 1;
+  }
+  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  for (const Run& r : runs) {
+    const RunSummary s = summarize(r);
+    if (s.datasets == 0) continue;
+    std::printf(
+        "%s: %d datasets, %d maps: FN %s %%, FP %s %%, TP %s %%, TN %s %%, F1 %s; planes "
+        "%s deg, %s cm\n",
+        r.label.c_str(), s.datasets, s.maps, fmtPm(s.fn, 100.0).c_str(), fmtPm(s.fp, 100.0).c_str(),
+        fmtPm(s.tp, 100.0).c_str(), fmtPm(s.tn, 100.0).c_str(), fmtPm(s.f1, 1.0, 3).c_str(),
+        fmtPm(s.planes_protocol.angle, 1.0, 2).c_str(),
+        fmtPm(s.planes_protocol.distance, 100.0, 2).c_str());
+  }
+  for (const Run& r : runs)
+    for (const DatasetResult& d : r.datasets)
+      for (const LatencyResult& l : d.latency)
+        std::printf("%s %s: board at %.2f m: 50 %% after %d frames, 90 %% after %d frames\n",
+                    r.label.c_str(), d.name.c_str(), l.start_distance, l.frames_to_50,
+                    l.frames_to_90);
+  for (const Target& t : targets(runs))
+    std::printf("target %s: %.2f %s (limit %.1f): %s\n", t.name.c_str(), t.measured, t.unit.c_str(),
+                t.limit, t.pass() ? "met" : "MISSED");
+  std::printf("wrote %s/report.md and %s/metrics.json in %.1f s\n", opt.out.c_str(),
+              opt.out.c_str(), wall);
+  return 0;
+}

@@ -1,0 +1,260 @@
+// The single-pair check behind the real-data evaluation (real_pair_check.h) on worlds whose answer
+// is known: planes given in the camera frame, hand-made safety maps, synthetic point sets and a
+// rendered stereo pair of a camera 1.1 m above a floor pitched 22 deg down.
+#include "stereo_safety_map/core/real_pair_check.h"
+#include "stereo_safety_map/dataset/renderer.h"
+#include "stereo_safety_map/dataset/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Camera (optical frame) at height h above the world floor z = 0, looking along world +x, pitched
+// down by `pitch` and rolled by `roll` about its optical axis. Returns T_world_camera.
+Eigen::Isometry3d cameraPose(double h, double pitch_deg, double roll_deg) {
+  const Eigen::Matrix3d link_to_optical = dataset::linkToOpticalRotation();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+               link_to_optical *
+               Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.0, 0.0, h);
+  return T;
+}
+
+// The world floor z = 0 as n . p + d = 0 in the camera frame.
+void floorInCamera(const Eigen::Isometry3d& T_world_camera, Eigen::Vector3d* n, double* d) {
+  const Eigen::Vector3d n_w = Eigen::Vector3d::UnitZ();
+  *n = T_world_camera.linear().transpose() * n_w;
+  *d = n_w.dot(T_world_camera.translation());
+}
+
+TEST(CameraPoseFromPlane, HeightPitchAndRollOfAKnownCamera) {
+  for (double pitch : {0.0, 5.0, 22.0}) {
+    for (double roll : {0.0, 3.0, -2.0}) {
+      Eigen::Vector3d n;
+      double d;
+      floorInCamera(cameraPose(1.1, pitch, roll), &n, &d);
+      GroundPlaneEstimate e = cameraPoseFromPlane(n, d);
+      ASSERT_TRUE(e.found);
+      EXPECT_NEAR(e.camera_height, 1.1, 1e-9);
+      EXPECT_NEAR(e.pitch_deg, pitch, 1e-6) << pitch << " " << roll;
+      EXPECT_NEAR(std::abs(e.roll_deg),
+                  std::abs(std::asin(std::sin(roll * kDeg) * std::cos(pitch * kDeg)) / kDeg), 1e-6);
+      // The sign and the scale of (n, d) do not matter.
+      e = cameraPoseFromPlane(-3.0 * n, -3.0 * d);
+      EXPECT_NEAR(e.camera_height, 1.1, 1e-9);
+      EXPECT_NEAR(e.pitch_deg, pitch, 1e-6);
+    }
+  }
+  EXPECT_FALSE(cameraPoseFromPlane(Eigen::Vector3d::Zero(), 1.0).found);
+  EXPECT_FALSE(cameraPoseFromPlane(Eigen::Vector3d::UnitY(), NAN).found);
+}
+
+TEST(LevelledCameraPose, PutsThePlaneAtZeroAndTheCameraAboveTheOrigin) {
+  Eigen::Vector3d n;
+  double d;
+  const Eigen::Isometry3d T_true = cameraPose(1.3, 12.0, 2.0);
+  floorInCamera(T_true, &n, &d);
+  const Eigen::Isometry3d T = levelledCameraPose(n, d);
+  EXPECT_NEAR((T.linear().transpose() * T.linear() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-9);
+  EXPECT_NEAR(T.translation().z(), 1.3, 1e-9);
+  EXPECT_NEAR(T.translation().head<2>().norm(), 0.0, 1e-12);
+  // Floor points seen by the camera land on z = 0.
+  for (const Eigen::Vector3d& pw : {Eigen::Vector3d(3, 1, 0), Eigen::Vector3d(5, -2, 0)}) {
+    const Eigen::Vector3d pc = T_true.inverse() * pw;
+    EXPECT_NEAR((T * pc).z(), 0.0, 1e-9);
+  }
+  // Looks along +x: the optical axis has no y component and points down by the pitch.
+  const Eigen::Vector3d axis = T.linear() * Eigen::Vector3d::UnitZ();
+  EXPECT_NEAR(axis.y(), 0.0, 1e-9);
+  EXPECT_GT(axis.x(), 0.0);
+  EXPECT_NEAR(std::asin(-axis.z()) / kDeg, 12.0, 1e-6);
+}
+
+SegmentInfo segment(int id, SafetyLabel label, int cells, double a, double b, double c) {
+  SegmentInfo s;
+  s.id = id;
+  s.label = label;
+  for (int k = 0; k < cells; ++k)
+    s.cells.push_back(k);
+  s.plane.valid = true;
+  s.plane.a = a;
+  s.plane.b = b;
+  s.plane.c = c;
+  return s;
+}
+
+TEST(DominantGroundPlane, LargestSafeSegmentRelativeToTheCamera) {
+  SafetyMap map;
+  map.segments.push_back(segment(0, SafetyLabel::kNonGround, 500, 0.0, 0.0, 0.5));
+  map.segments.push_back(segment(1, SafetyLabel::kLevel, 200, 0.0, 0.0, 0.1));
+  map.segments.push_back(segment(2, SafetyLabel::kInclined, 100, 0.1, 0.0, 0.0));
+  // Camera 1.2 m above the fixed origin pitched 8 deg down, plane of segment 1 at z = 0.1.
+  const Eigen::Isometry3d T = cameraPose(1.2, 8.0, 0.0);
+  GroundPlaneEstimate e = dominantGroundPlane(map, T);
+  ASSERT_TRUE(e.found);
+  EXPECT_EQ(e.segment, 1);
+  EXPECT_EQ(e.cells, 200);
+  EXPECT_EQ(e.label, SafetyLabel::kLevel);
+  EXPECT_NEAR(e.camera_height, 1.1, 1e-9);
+  EXPECT_NEAR(e.pitch_deg, 8.0, 1e-6);
+  EXPECT_NEAR(e.slope_deg, 0.0, 1e-9);
+
+  // Without a safe segment the largest valid plane is reported with its label.
+  map.segments[1].label = SafetyLabel::kUnknown;
+  map.segments[2].plane.valid = false;
+  e = dominantGroundPlane(map, T);
+  ASSERT_TRUE(e.found);
+  EXPECT_EQ(e.segment, 0);
+  EXPECT_EQ(e.label, SafetyLabel::kNonGround);
+  for (auto& s : map.segments)
+    s.plane.valid = false;
+  EXPECT_FALSE(dominantGroundPlane(map, T).found);
+  EXPECT_FALSE(dominantGroundPlane(SafetyMap(), T).found);
+}
+
+TEST(FitGroundPlaneRansac, FindsTheFloorAmongWallPoints) {
+  const Eigen::Isometry3d T = cameraPose(1.05, 6.0, 1.0);
+  const Eigen::Isometry3d T_inv = T.inverse();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ux(1.5, 5.5), uy(-2.0, 2.0), uz(0.0, 2.5);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 3000; ++i)  // floor
+    pts.push_back((T_inv * Eigen::Vector3d(ux(rng), uy(rng), noise(rng))).cast<float>());
+  for (int i = 0; i < 4000; ++i)  // a wall ahead, more points than the floor
+    pts.push_back((T_inv * Eigen::Vector3d(4.0 + noise(rng), uy(rng), uz(rng))).cast<float>());
+  pts.push_back(Eigen::Vector3f(NAN, 1.0f, 2.0f));
+  Eigen::Vector3d n;
+  double d;
+  ASSERT_TRUE(fitGroundPlaneRansac(pts, RealPairCheckConfig(), &n, &d));
+  const GroundPlaneEstimate e = cameraPoseFromPlane(n, d);
+  EXPECT_NEAR(e.camera_height, 1.05, 0.005);
+  EXPECT_NEAR(e.pitch_deg, 6.0, 0.2);
+
+  // Only a wall, or too few points: no ground plane.
+  std::vector<Eigen::Vector3f> wall(pts.begin() + 3000, pts.end());
+  EXPECT_FALSE(fitGroundPlaneRansac(wall, RealPairCheckConfig(), &n, &d));
+  std::vector<Eigen::Vector3f> few(pts.begin(), pts.begin() + 20);
+  EXPECT_FALSE(fitGroundPlaneRansac(few, RealPairCheckConfig(), &n, &d));
+  EXPECT_FALSE(fitGroundPlaneRansac({}, RealPairCheckConfig(), &n, &d));
+  EXPECT_FALSE(fitGroundPlaneRansac(pts, RealPairCheckConfig(), nullptr, &d));
+}
+
+TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
+  namespace ds = dataset;
+  ds::Scene scene;
+  ds::Material m;
+  m.texture = ds::TextureKind::kNoise;
+  m.scale = 0.15;
+  m.contrast = 0.7;
+  const int mat = scene.addMaterial("floor", m);
+  ds::Primitive floor = ds::makeBox({4.0, 0.0, -0.5}, {12.0, 12.0, 1.0});
+  floor.material = mat;
+  floor.ground = true;
+  floor.name = "floor";
+  scene.add(floor);
+  ds::Primitive box = ds::makeBox({3.5, -1.0, 0.4}, {0.6, 0.6, 0.8});
+  box.material = mat;
+  box.name = "box";
+  scene.add(box);
+
+  ds::StereoHeadConfig head;  // 1.1 m high, pitched 22 deg down
+  head = head.scaledTo(320, 240);
+  head.threads = 1;
+  ds::StereoRenderer renderer(scene, head, 5);
+  cv::Mat left, right;
+  renderer.render(head.baseToLeftOptical(), 0, &left, &right);
+
+  StereoCameraModel camera;
+  camera.fx = camera.fy = head.fx();
+  camera.cx = camera.cx_right = head.cx();
+  camera.cy = head.cy();
+  camera.baseline = head.baseline;
+  camera.width = head.width;
+  camera.height = head.height;
+  RealPairResult r;
+  ASSERT_TRUE(checkRealPair(left, right, camera, RealPairCheckConfig(), &r)) << r.error;
+  std::printf("rendered: %.3f m / %.2f deg, roll %.2f, %d cells %s, non-ground %d\n",
+              r.map_plane.camera_height, r.map_plane.pitch_deg, r.map_plane.roll_deg,
+              r.map_plane.cells, toString(r.map_plane.label), r.non_ground_cells);
+  EXPECT_NEAR(r.map_plane.camera_height, head.mount_z, 0.02);
+  EXPECT_NEAR(r.map_plane.pitch_deg, head.pitch_deg, 0.5);
+  EXPECT_NEAR(r.map_plane.roll_deg, 0.0, 0.5);
+  EXPECT_EQ(r.map_plane.label, SafetyLabel::kLevel);
+  EXPECT_GT(r.non_ground_cells, 5);  // the box
+
+  // Bad input is refused with a reason.
+  EXPECT_FALSE(checkRealPair(cv::Mat(), right, camera, RealPairCheckConfig(), &r));
+  EXPECT_NE(r.error, "");
+  StereoCameraModel bad = camera;
+  bad.baseline = 0.0;
+  EXPECT_FALSE(checkRealPair(left, right, bad, RealPairCheckConfig(), &r));
+  EXPECT_NE(r.error.find("camera"), std::string::npos);
+  RealPairCheckConfig bad_config;
+  bad_config.seed_radius = -1.0;
+  EXPECT_FALSE(checkRealPair(left, right, camera, bad_config, &r));
+  EXPECT_NE(r.error.find("seed_radius"), std::string::npos);
+  const cv::Mat flat(camera.height, camera.width, CV_8UC1, cv::Scalar(128));
+  EXPECT_FALSE(checkRealPair(flat, flat, camera, RealPairCheckConfig(), &r));  // no texture
+  EXPECT_FALSE(checkRealPair(left, right, camera, RealPairCheckConfig(), nullptr));
+}
+
+TEST(RealPairCheckConfig, ValidateNamesTheParameter) {
+  EXPECT_EQ(RealPairCheckConfig().validate(), "");
+  RealPairCheckConfig c;
+  c.ransac_iterations = 0;
+  EXPECT_NE(c.validate().find("ransac_iterations"), std::string::npos);
+  c = RealPairCheckConfig();
+  c.max_tilt_deg = 95.0;
+  EXPECT_NE(c.validate().find("max_tilt_deg"), std::string::npos);
+  c = RealPairCheckConfig();
+  c.processor.disparity_step = 0;
+  EXPECT_NE(c.validate().find("disparity_step"), std::string::npos);
+}
+
+TEST(Calibration, ReadsRosYamlAndKeyValueFiles) {
+  const std::string dir = ::testing::TempDir();
+  const std::string l = dir + "/ssm_left.yaml", r = dir + "/ssm_right.yaml", t = dir + "/ssm.txt";
+  const char* fmt =
+      "%%YAML:1.0\n---\nimage_width: 640\nimage_height: 480\nprojection_matrix:\n"
+      "   rows: 3\n   cols: 4\n   data: [ 500., 0., 320.5, %s, 0., 501., 240.5, 0., 0., 0., 1., 0. "
+      "]\n";
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), fmt, "0.");
+  std::ofstream(l) << buf;
+  std::snprintf(buf, sizeof(buf), fmt, "-60.");
+  std::ofstream(r) << buf;
+  StereoCameraModel m;
+  ASSERT_EQ(loadStereoCalibration(l, r, &m), "");
+  EXPECT_DOUBLE_EQ(m.fx, 500.0);
+  EXPECT_DOUBLE_EQ(m.fy, 501.0);
+  EXPECT_DOUBLE_EQ(m.cx, 320.5);
+  EXPECT_DOUBLE_EQ(m.cy, 240.5);
+  EXPECT_DOUBLE_EQ(m.baseline, 0.12);
+  EXPECT_EQ(m.width, 640);
+  EXPECT_NE(loadStereoCalibration(l, l, &m), "");  // zero baseline
+  EXPECT_NE(loadStereoCalibration(dir + "/missing.yaml", r, &m), "");
+
+  std::ofstream(t) << "f=494.1 cx=317.2 cy=248.8 baseline_m=0.12 (comment)\n";
+  ASSERT_EQ(loadRectifiedCalibText(t, 640, 480, &m), "");
+  EXPECT_DOUBLE_EQ(m.fx, 494.1);
+  EXPECT_DOUBLE_EQ(m.cx_right, 317.2);
+  EXPECT_DOUBLE_EQ(m.baseline, 0.12);
+  std::ofstream(t) << "f=494.1 cx=317.2\n";
+  EXPECT_NE(loadRectifiedCalibText(t, 640, 480, &m), "");
+  EXPECT_NE(loadRectifiedCalibText(dir + "/missing.txt", 640, 480, &m), "");
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

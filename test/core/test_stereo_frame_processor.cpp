@@ -1,0 +1,203 @@
+// StereoFrameProcessor: one stereo frame through disparity, reprojection and the mapper, the code
+// shared by the offline evaluator and the nodelets. Worlds: a rendered floor with a box (known
+// geometry) and synthetic disparity images of a level floor.
+#include "stereo_safety_map/core/stereo_frame_processor.h"
+#include "stereo_safety_map/dataset/renderer.h"
+#include "stereo_safety_map/dataset/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace stereo_safety_map {
+namespace {
+
+namespace ds = dataset;
+
+ds::StereoHeadConfig smallHead() {
+  ds::StereoHeadConfig h;
+  h = h.scaledTo(320, 240);
+  h.threads = 1;
+  return h;
+}
+
+StereoCameraModel cameraOf(const ds::StereoHeadConfig& h) {
+  StereoCameraModel c;
+  c.fx = c.fy = h.fx();
+  c.cx = c.cx_right = h.cx();
+  c.cy = h.cy();
+  c.baseline = h.baseline;
+  c.width = h.width;
+  c.height = h.height;
+  return c;
+}
+
+ds::Scene floorWithBox() {
+  ds::Scene s;
+  ds::Material m;
+  m.texture = ds::TextureKind::kNoise;
+  m.scale = 0.15;
+  m.contrast = 0.7;
+  const int mat = s.addMaterial("m", m);
+  ds::Primitive floor = ds::makeBox({3.0, 0.0, -0.5}, {12.0, 10.0, 1.0});
+  floor.material = mat;
+  floor.ground = true;
+  floor.name = "floor";
+  s.add(floor);
+  ds::Primitive box = ds::makeBox({3.0, 0.0, 0.4}, {0.6, 0.6, 0.8});
+  box.material = mat;
+  box.name = "box";
+  s.add(box);
+  return s;
+}
+
+// Disparity of the level floor z = 0 seen by `head` from its mount on a base at the origin.
+cv::Mat floorDisparity(const ds::StereoHeadConfig& head) {
+  const Eigen::Isometry3d T = head.baseToLeftOptical();  // base = world
+  const StereoCameraModel cam = cameraOf(head);
+  cv::Mat d(head.height, head.width, CV_32FC1, cv::Scalar(0.0f));
+  for (int y = 0; y < head.height; ++y) {
+    for (int x = 0; x < head.width; ++x) {
+      const Eigen::Vector3d ray_c((x - cam.cx) / cam.fx, (y - cam.cy) / cam.fy, 1.0);
+      const Eigen::Vector3d ray_w = T.linear() * ray_c;
+      if (ray_w.z() >= -1e-6) continue;
+      const double s = -T.translation().z() / ray_w.z();  // depth Z along the optical axis
+      if (s > 7.0) continue;
+      d.at<float>(y, x) = static_cast<float>(cam.disparityFromDepth(s));
+    }
+  }
+  return d;
+}
+
+TEST(StereoFrameProcessorConfig, ValidateNamesTheParameter) {
+  EXPECT_EQ(StereoFrameProcessorConfig().validate(), "");
+  StereoFrameProcessorConfig c;
+  c.disparity_step = 17;
+  EXPECT_NE(c.validate().find("disparity_step"), std::string::npos);
+  c = StereoFrameProcessorConfig();
+  c.mapper.grid.voxel_size = -1.0;
+  EXPECT_NE(c.validate().find("mapper."), std::string::npos);
+  c = StereoFrameProcessorConfig();
+  c.disparity.num_disparities = 15;
+  EXPECT_NE(c.validate().find("disparity."), std::string::npos);
+  EXPECT_THROW(StereoFrameProcessor{c}, std::invalid_argument);
+}
+
+TEST(SingleFrameMapperConfig, OneHitNoDecrementsWideSeed) {
+  const SafetyMapperConfig base;
+  const SafetyMapperConfig c = singleFrameMapperConfig(base, 3.0);
+  EXPECT_EQ(c.grid.occ_threshold, base.grid.incr_high);
+  EXPECT_EQ(c.grid.decr, 0);
+  EXPECT_DOUBLE_EQ(c.segmentation.seed_radius, 3.0);
+  EXPECT_FALSE(c.skip_stationary_frames);
+  EXPECT_EQ(c.validate(), "");
+  // Everything else keeps the paper's values.
+  EXPECT_EQ(c.grid.incr_high, base.grid.incr_high);
+  EXPECT_DOUBLE_EQ(c.labelling.max_slope_deg, base.labelling.max_slope_deg);
+  EXPECT_DOUBLE_EQ(c.segmentation.planning_radius, base.segmentation.planning_radius);
+}
+
+TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationaryFrames) {
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat disparity = floorDisparity(head);
+  StereoFrameProcessorConfig c;
+  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
+  c.mapper.skip_stationary_frames = true;
+  StereoFrameProcessor p(c);
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  StereoFrameResult r;
+  std::string err;
+  ASSERT_TRUE(p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err))
+      << err;
+  EXPECT_EQ(r.mapper.status, FrameStatus::kIntegrated);
+  EXPECT_GT(r.points, 10000u);
+  EXPECT_EQ(r.points, p.points().size());
+  EXPECT_TRUE(p.disparity().empty());
+  const SafetyMap& map = p.mapper().safetyMap();
+  ASSERT_GE(map.robot_segment, 0);
+  const SegmentInfo& s = map.segments[map.robot_segment];
+  EXPECT_EQ(s.label, SafetyLabel::kLevel);
+  ASSERT_TRUE(s.plane.valid);
+  EXPECT_NEAR(s.plane.c, 0.0, 0.02);
+  EXPECT_LT(s.plane.slope_deg, 0.5);
+
+  // The same pose again: stationary, refused, map kept.
+  const std::size_t cells = s.cells.size();
+  EXPECT_FALSE(p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+  EXPECT_NE(err.find("stationary"), std::string::npos);
+  EXPECT_EQ(p.mapper().safetyMap().segments[map.robot_segment].cells.size(), cells);
+
+  p.reset();
+  EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
+}
+
+TEST(StereoFrameProcessor, ImagesAndTheirDisparityGiveTheSameMap) {
+  // The evaluator runs the images; the nodelet gets a disparity image. Same disparity, same map.
+  const ds::StereoHeadConfig head = smallHead();
+  ds::StereoRenderer renderer(floorWithBox(), head, 3);
+  StereoFrameProcessorConfig c;
+  StereoFrameProcessor from_images(c), from_disparity(c);
+  const StereoCameraModel cam = cameraOf(head);
+  cv::Mat left, right;
+  for (int k = 0; k < 12; ++k) {
+    const Eigen::Isometry3d T_base = ds::basePose(0.05 * k, 0.0, 0.0, 0.0);
+    const Eigen::Isometry3f T = (T_base * head.baseToLeftOptical()).cast<float>();
+    const Eigen::Vector3f robot(0.05f * k, 0.0f, 0.0f);
+    renderer.render(T_base * head.baseToLeftOptical(), k, &left, &right);
+    StereoFrameResult ri, rd;
+    std::string err;
+    ASSERT_TRUE(from_images.processImages(left, right, cam, T, robot, &ri, &err)) << err;
+    ASSERT_TRUE(from_disparity.processDisparity(from_images.disparity(), cam, T, robot, &rd, &err))
+        << err;
+    EXPECT_EQ(ri.points, rd.points);
+    EXPECT_GT(ri.disparity.valid, 0);
+    EXPECT_GT(ri.timings.disparity_ms, 0.0);
+    EXPECT_GE(ri.timings.total_ms, ri.timings.disparity_ms);
+  }
+  EXPECT_EQ(from_images.mapper().safetyMap().labels, from_disparity.mapper().safetyMap().labels);
+  // The box 3 m ahead is an obstacle in the map.
+  const SafetyMap& map = from_images.mapper().safetyMap();
+  int non_ground_near_box = 0;
+  for (int v = -3; v <= 3; ++v)
+    for (int u = 27; u <= 33; ++u)
+      non_ground_near_box += map.inside(u, v) && map.labelAt(u, v) == SafetyLabel::kNonGround;
+  EXPECT_GT(non_ground_near_box, 5);
+}
+
+TEST(StereoFrameProcessor, BadInputIsRefusedWithAReason) {
+  const ds::StereoHeadConfig head = smallHead();
+  StereoFrameProcessor p;
+  const StereoCameraModel cam = cameraOf(head);
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  const cv::Mat img(head.height, head.width, CV_8UC1, cv::Scalar(100));
+  StereoFrameResult r;
+  std::string err;
+  StereoCameraModel bad = cam;
+  bad.fx = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(p.processImages(img, img, bad, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_NE(err.find("camera"), std::string::npos);
+  const cv::Mat small(10, 10, CV_8UC1, cv::Scalar(1));
+  EXPECT_FALSE(p.processImages(small, small, cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_NE(err.find("image"), std::string::npos);
+  EXPECT_FALSE(p.processImages(img, cv::Mat(), cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_NE(err.find("disparity"), std::string::npos);
+  EXPECT_FALSE(p.processDisparity(cv::Mat(), cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  const cv::Mat wrong_type(head.height, head.width, CV_8UC1, cv::Scalar(5));
+  EXPECT_FALSE(p.processDisparity(wrong_type, cam, T, Eigen::Vector3f::Zero(), &r, nullptr));
+  // A textureless pair gives no points: the mapper refuses the empty frame.
+  EXPECT_FALSE(p.processImages(img, img, cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kEmptyInput);
+  // Non-finite pose.
+  Eigen::Isometry3f nan_pose = T;
+  nan_pose.translation().x() = std::numeric_limits<float>::quiet_NaN();
+  const cv::Mat disparity = floorDisparity(head);
+  EXPECT_FALSE(p.processDisparity(disparity, cam, nan_pose, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kInvalidPose);
+  EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map

@@ -1,0 +1,179 @@
+// A small synthetic stereo scene for the rostests, known by construction: a level floor (z = 0 in
+// odom) with a box on it, seen by a camera 1 m above the robot's base, pitched down 30 deg and
+// looking along +x. Renders the DisparityImage + CameraInfo pair and the equivalent PointCloud2
+// by ray casting, and publishes the static tf odom -> base_link -> camera.
+#pragma once
+
+#include <geometry_msgs/TransformStamped.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <stereo_msgs/DisparityImage.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+namespace synthetic_scene {
+
+constexpr int kWidth = 320;
+constexpr int kHeight = 240;
+constexpr double kF = 250.0;
+constexpr double kCx = 160.0;
+constexpr double kCy = 120.0;
+constexpr double kBaseline = 0.12;
+constexpr double kCameraHeight = 1.0;
+constexpr double kPitchDeg = 30.0;
+constexpr double kMaxDepth = 7.5;
+constexpr char kCameraFrame[] = "stereo_left_optical";
+
+// The box: x in [2.0, 2.6], y in [-0.3, 0.3], z in [0, 0.5] (odom).
+constexpr double kBoxMin[3] = {2.0, -0.3, 0.0};
+constexpr double kBoxMax[3] = {2.6, 0.3, 0.5};
+
+/// base_link -> optical frame (x right, y down, z forward), pitched down.
+inline Eigen::Isometry3d baseToCamera() {
+  Eigen::Matrix3d level;  // optical axes in base_link: x -> -y, y -> -z, z -> +x
+  level << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const Eigen::Matrix3d pitch =
+      Eigen::AngleAxisd(kPitchDeg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = pitch * level;
+  T.translation() = Eigen::Vector3d(0.0, 0.0, kCameraHeight);
+  return T;
+}
+
+inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
+                                             const std::string& child) {
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = T.translation().x();
+  t.transform.translation.y = T.translation().y();
+  t.transform.translation.z = T.translation().z();
+  const Eigen::Quaterniond q(T.linear());
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  t.transform.rotation.w = q.w();
+  return t;
+}
+
+/// Depth (optical z) of pixel (u, v) for a camera at T_odom_camera; NaN when nothing is hit
+/// within kMaxDepth.
+inline double depthAt(const Eigen::Isometry3d& T_odom_camera, double u, double v) {
+  const Eigen::Vector3d d_cam((u - kCx) / kF, (v - kCy) / kF, 1.0);  // z = 1: t is the depth
+  const Eigen::Vector3d o = T_odom_camera.translation();
+  const Eigen::Vector3d d = T_odom_camera.linear() * d_cam;
+  double best = std::numeric_limits<double>::infinity();
+  if (d.z() < -1e-9) best = -o.z() / d.z();  // floor z = 0
+  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
+  bool hit = true;
+  for (int a = 0; a < 3 && hit; ++a) {
+    if (std::abs(d[a]) < 1e-12) {
+      hit = o[a] >= kBoxMin[a] && o[a] <= kBoxMax[a];
+    } else {
+      double ta = (kBoxMin[a] - o[a]) / d[a], tb = (kBoxMax[a] - o[a]) / d[a];
+      if (ta > tb) std::swap(ta, tb);
+      t0 = std::max(t0, ta);
+      t1 = std::min(t1, tb);
+      hit = t0 <= t1;
+    }
+  }
+  if (hit && t0 > 0.0) best = std::min(best, t0);
+  return best <= kMaxDepth ? best : std::numeric_limits<double>::quiet_NaN();
+}
+
+inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  info.width = kWidth;
+  info.height = kHeight;
+  info.distortion_model = "plumb_bob";
+  info.D.assign(5, 0.0);
+  info.K = {kF, 0, kCx, 0, kF, kCy, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {kF, 0, kCx, right ? -kF * kBaseline : 0.0, 0, kF, kCy, 0, 0, 0, 1, 0};
+  return info;
+}
+
+/// Invalid pixels are -1 (below min_disparity = 0.5), as stereo_image_proc marks them.
+inline stereo_msgs::DisparityImage disparityImage(const Eigen::Isometry3d& T_odom_camera,
+                                                  const std_msgs::Header& header) {
+  stereo_msgs::DisparityImage msg;
+  msg.header = header;
+  msg.f = kF;
+  msg.T = kBaseline;
+  msg.min_disparity = 0.5f;
+  msg.max_disparity = 128.0f;
+  msg.delta_d = 1.0f / 16;
+  sensor_msgs::Image& img = msg.image;
+  img.header = header;
+  img.width = kWidth;
+  img.height = kHeight;
+  img.encoding = sensor_msgs::image_encodings::TYPE_32FC1;
+  img.step = kWidth * sizeof(float);
+  img.data.resize(img.step * kHeight);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const double z = depthAt(T_odom_camera, u, v);
+      const float d = std::isfinite(z) ? static_cast<float>(kF * kBaseline / z) : -1.0f;
+      std::memcpy(&img.data[(v * kWidth + u) * sizeof(float)], &d, sizeof(float));
+    }
+  }
+  msg.valid_window.width = kWidth;
+  msg.valid_window.height = kHeight;
+  return msg;
+}
+
+/// The same scene as an organised cloud in the camera frame, NaN where nothing is hit.
+inline sensor_msgs::PointCloud2 pointCloud(const Eigen::Isometry3d& T_odom_camera,
+                                           const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header = header;
+  sensor_msgs::PointCloud2Modifier mod(cloud);
+  mod.setPointCloud2FieldsByString(1, "xyz");
+  mod.resize(kWidth * kHeight);
+  cloud.width = kWidth;
+  cloud.height = kHeight;
+  cloud.row_step = cloud.width * cloud.point_step;
+  cloud.is_dense = false;
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u, ++x, ++y, ++z) {
+      const double depth = depthAt(T_odom_camera, u, v);
+      *x = static_cast<float>((u - kCx) / kF * depth);
+      *y = static_cast<float>((v - kCy) / kF * depth);
+      *z = static_cast<float>(depth);
+    }
+  }
+  return cloud;
+}
+
+/// A grey left image (the floor's checker pattern) for rviz's Image display.
+inline sensor_msgs::Image leftImage(const Eigen::Isometry3d& T_odom_camera,
+                                    const std_msgs::Header& header) {
+  sensor_msgs::Image img;
+  img.header = header;
+  img.width = kWidth;
+  img.height = kHeight;
+  img.encoding = sensor_msgs::image_encodings::MONO8;
+  img.step = kWidth;
+  img.data.resize(kWidth * kHeight);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const double z = depthAt(T_odom_camera, u, v);
+      img.data[v * kWidth + u] =
+          std::isfinite(z) ? static_cast<std::uint8_t>(255 - std::min(200.0, z * 25.0)) : 30;
+    }
+  }
+  return img;
+}
+
+}  // namespace synthetic_scene
