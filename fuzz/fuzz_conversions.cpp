@@ -72,6 +72,10 @@ sensor_msgs::CameraInfo randomCameraInfo(FuzzedDataProvider& fdp, bool right, do
                                          double baseline, std::uint32_t width,
                                          std::uint32_t height) {
   sensor_msgs::CameraInfo info;
+  // Drivers name the two optical frames alike or not; image_geometry wants them equal.
+  info.header.frame_id = fdp.ConsumeIntegralInRange<int>(0, 7) == 0
+                             ? (right ? "right_optical" : "left_optical")
+                             : "stereo_optical";
   info.width = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? randomDimension(fdp, 64) : width;
   info.height = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? randomDimension(fdp, 48) : height;
   info.distortion_model =

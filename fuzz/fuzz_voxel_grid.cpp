@@ -25,13 +25,13 @@ namespace {
 
 // The harness's own budget: larger (valid) grids are only validated, not built, to keep each
 // input fast.
-constexpr double kMaxFuzzVoxels = 4e4;
+constexpr double kMaxFuzzVoxels = 1.5e4;
 
 VoxelGridConfig randomConfig(FuzzedDataProvider& fdp) {
   VoxelGridConfig c;
-  c.voxel_size = mostlyInRange(fdp, 0.08, 0.4, 16);
-  c.size_x = mostlyInRange(fdp, 0.0, 3.0, 16);
-  c.size_y = mostlyInRange(fdp, 0.0, 3.0, 16);
+  c.voxel_size = mostlyInRange(fdp, 0.1, 0.4, 16);
+  c.size_x = mostlyInRange(fdp, 0.0, 2.5, 16);
+  c.size_y = mostlyInRange(fdp, 0.0, 2.5, 16);
   c.size_z = mostlyInRange(fdp, 0.0, 2.0, 16);
   c.z_below_robot = mostlyInRange(fdp, 0.0, 1.5, 16);
   c.incr_high = mostlyIntInRange(fdp, 0, 40, 16);

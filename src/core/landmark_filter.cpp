@@ -420,8 +420,7 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
       continue;
     }
     // Not in 001: a permanent landmark in plain view that no point has matched for stale_time
-    // is gone (moved, or superseded by nearer landmarks as the robot approached); this bounds
-    // the map's density, and with it the cost per frame.
+    // is gone (an object that moved away, or a surface that other landmarks now explain).
     if (l.status == LandmarkStatus::kPermanent &&
         stamp_ - l.last_match_stamp > config_.stale_time && col >= 0.0 && col < width &&
         row >= 0.0 && row < height && pc.z() >= config_.min_depth && pc.z() <= config_.max_depth) {
@@ -435,8 +434,9 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
     ++visit_row_start_[r + 1];
   }
   stats_.landmarks_in_view = visit_slot_.size();
-  for (int r = 0; r < camera_.height; ++r)
+  for (int r = 0; r < camera_.height; ++r) {
     visit_row_start_[r + 1] += visit_row_start_[r];
+  }
   visit_order_.resize(visit_slot_.size());
   for (std::size_t i = 0; i < visit_slot_.size(); ++i) {
     visit_order_[visit_row_start_[visit_row_[i]]++] = visit_slot_[i];

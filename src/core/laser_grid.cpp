@@ -137,18 +137,22 @@ std::size_t LaserGrid::moveTo(int min_u, int min_v) {
   }
   // The storage column of a global u that leaves is the one of the u that enters (ring buffer).
   if (du > 0) {
-    for (int u = min_u_; u < min_u_ + du; ++u)
+    for (int u = min_u_; u < min_u_ + du; ++u) {
       clearColumn(u);
+    }
   } else {
-    for (int u = min_u_ + w + static_cast<int>(du); u < min_u_ + w; ++u)
+    for (int u = min_u_ + w + static_cast<int>(du); u < min_u_ + w; ++u) {
       clearColumn(u);
+    }
   }
   if (dv > 0) {
-    for (int v = min_v_; v < min_v_ + dv; ++v)
+    for (int v = min_v_; v < min_v_ + dv; ++v) {
       clearRow(v);
+    }
   } else {
-    for (int v = min_v_ + h + static_cast<int>(dv); v < min_v_ + h; ++v)
+    for (int v = min_v_ + h + static_cast<int>(dv); v < min_v_ + h; ++v) {
       clearRow(v);
+    }
   }
   min_u_ = min_u;
   min_v_ = min_v;

@@ -526,6 +526,10 @@ struct DatasetResult {
   int stationary = 0;
   int rejected = 0;  // no tf, bad images, ...
   int without_robot_segment = 0;
+  // Where the false positives are (diagnostics): cells of ground segments labelled Non-ground
+  // (unreachable or too steep, Alg. 2), columns in no segment (heights unlike their neighbours),
+  // and all FPs of maps without the robot's segment.
+  std::uint64_t fp_in_segment = 0, fp_no_segment = 0, fp_without_robot_segment = 0;
   ssm::ConfusionCounts sum;
   ssm::ConfusionCounts seeded;  // maps in which the robot's segment was found
   Series stage_ms[kStages];
@@ -901,8 +905,15 @@ void evaluateFrameMap(const Dataset& ds, const ssm::SafetyMap& map, int frame, d
   res->sum += rec->counts;
   if (rec->robot_segment) {
     res->seeded += rec->counts;
+    if (outcomes != nullptr && map.segment.size() == outcomes->size()) {
+      for (std::size_t k = 0; k < outcomes->size(); ++k) {
+        if ((*outcomes)[k] != ssm::CellOutcome::kFalsePositive) continue;
+        ++(map.segment[k] >= 0 ? res->fp_in_segment : res->fp_no_segment);
+      }
+    }
   } else {
     ++res->without_robot_segment;
+    res->fp_without_robot_segment += rec->counts.fp;
   }
   (void)stamp;
   for (const ssm::SegmentInfo& s : map.segments) {
@@ -1605,6 +1616,10 @@ std::vector<Target> targets(const std::vector<Run>& runs) {
   return t;
 }
 
+double share(std::uint64_t part, std::uint64_t whole) {
+  return whole == 0 ? kNaN : static_cast<double>(part) / static_cast<double>(whole);
+}
+
 std::string fmtPct(double v) {
   if (!std::isfinite(v)) return "n/a";
   char b[32];
@@ -1684,6 +1699,10 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
       j.open('{').kv("name", d.name).kv("latency_only", d.latency_only);
       j.kv("pairs", d.pairs).kv("maps", d.integrated).kv("stationary", d.stationary);
       j.kv("rejected", d.rejected).kv("maps_without_robot_segment", d.without_robot_segment);
+      j.key("fp_where").open('{');
+      j.kv("ground_segment_labelled_non_ground", d.fp_in_segment);
+      j.kv("column_in_no_segment", d.fp_no_segment);
+      j.kv("maps_without_robot_segment", d.fp_without_robot_segment).close('}');
       jsonCounts(j, "counts", d.sum);
       jsonRates(j, "rates", d.sum);
       jsonCounts(j, "counts_with_robot_segment", d.seeded);
@@ -1802,7 +1821,8 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
       md << "### Per dataset, " << r.label << "\n\n"
          << "| dataset | maps | stationary | no robot segment | unsafe cells | safe cells | FN | "
             "FP | "
-            "TP | TN | P | R | F1 |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+            "TP | TN | P | R | F1 | FP in Non-ground segments / in no segment / in maps without "
+            "robot segment [%] |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
       for (const DatasetResult& d : r.datasets) {
         if (d.latency_only) continue;
         const ssm::ErrorRates e = ssm::errorRates(d.sum);
@@ -1811,7 +1831,9 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
            << d.without_robot_segment << " | " << d.sum.unsafeCells() << " | " << d.sum.safeCells()
            << " | " << fmtPct(e.fn) << " | " << fmtPct(e.fp) << " | " << fmtPct(e.tp) << " | "
            << fmtPct(e.tn) << " | " << fmt(c.precision, 3) << " | " << fmt(c.recall, 3) << " | "
-           << fmt(c.f1, 3) << " |\n";
+           << fmt(c.f1, 3) << " | " << fmtPct(share(d.fp_in_segment, d.sum.fp)) << " / "
+           << fmtPct(share(d.fp_no_segment, d.sum.fp)) << " / "
+           << fmtPct(share(d.fp_without_robot_segment, d.sum.fp)) << " |\n";
       }
       md << "\n";
     }
@@ -1828,7 +1850,7 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
     }
     md << "\nProtocol: all safe planes of " << opt.plane_frames
        << " frames per dataset drawn at random (seed " << opt.seed
-       << "), averaged over all planes of all datasets (paper: 1.2 &plusmn; 0.5 deg, 1.9 &plusmn; "
+       << "), averaged over all planes of all datasets (paper: 1.2 +- 0.5 deg, 1.9 +- "
           "0.8 cm).\n\n";
   }
   // Latency.

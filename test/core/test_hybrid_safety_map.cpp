@@ -94,11 +94,11 @@ TEST(HybridSafetyMap, MergedMapFollowsTheCombinationTable) {
 // 001 Fig. 6: a table whose legs the laser sees and whose top it does not.
 TEST(HybridSafetyMap, LaserOnlyMissesAnOverhangThatTheMergedMapCatches) {
   // A 6 x 6 m room, cells u, v in [0, 60); walls on the border cells.
-  const int n = 60;
+  constexpr int n = 60;
   // Table top over u in [25, 35), v in [25, 33); legs are the four corner cells.
   const auto in_table = [](int u, int v) { return u >= 25 && u < 35 && v >= 25 && v < 33; };
   const auto is_leg = [](int u, int v) { return (u == 25 || u == 34) && (v == 25 || v == 32); };
-  const auto is_wall = [n](int u, int v) { return u == 0 || v == 0 || u == n - 1 || v == n - 1; };
+  const auto is_wall = [](int u, int v) { return u == 0 || v == 0 || u == n - 1 || v == n - 1; };
 
   // Laser 0.3 m high at (1.5, 1.5) m: beams hit walls and legs, pass under the table top.
   LaserGridConfig lc;

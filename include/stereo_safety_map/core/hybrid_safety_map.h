@@ -46,7 +46,8 @@
 //     clear areas are considered safe"), Unknown -> Unknown;
 //   - stereo-only: Non-ground -> Obstacle (001 does "not distinguish between hazards and
 //     obstacles" there), Inclined -> Caution, Level -> Safe, Unknown / Unexamined -> Unknown;
-// with the same drop-off and narrow-passage rules.
+// the narrow-passage rule applies to all three (with each map's own Obstacle / Hazard cells as
+// walls), the drop-off rule to the two that have vision.
 #pragma once
 
 #include "stereo_safety_map/core/evaluation_metrics.h"
