@@ -38,8 +38,14 @@ ssm_build() {
   mkdir -p "$SSM_WS/src"
   local link="$SSM_WS/src/stereo_safety_map"
   if [[ ! -e "$link" ]]; then ln -s "$SSM_ROOT" "$link"; fi
+  # ccache, when installed (not required), makes rebuilds in other checkouts cheap.
+  local launcher=()
+  if command -v ccache > /dev/null; then
+    export CCACHE_BASEDIR="$SSM_ROOT" CCACHE_NOHASHDIR=1
+    launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  fi
   # Arguments are passed to catkin_make (targets such as `tests`, or extra -D options).
-  (cd "$SSM_WS" && catkin_make -j2 \
+  (cd "$SSM_WS" && catkin_make -j2 "${launcher[@]}" \
     -DCMAKE_BUILD_TYPE=Release \
     -DCATKIN_ENABLE_TESTING=ON \
     -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
