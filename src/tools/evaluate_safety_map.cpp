@@ -24,7 +24,9 @@
 // --recorded REC.bag evaluates the SafetyMap messages recorded from the nodelets (topic
 // safety_map_labels) against the ground truth of the single --bag instead of running the core.
 #include "stereo_safety_map/core/evaluation_metrics.h"
+#include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
+#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/msgs.h"
 
 #include <cv_bridge/cv_bridge.h>
@@ -74,6 +76,10 @@ using ssm::SafetyLabel;
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using ssm::fileExists;
+using ssm::labelColour;
+using ssm::makeDirs;
+using ssm::mapBesideGroundTruth;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // ---------------------------------------------------------------------------------------------
@@ -188,285 +194,6 @@ bool parseArgs(int argc, char** argv, Options* o) {
   return true;
 }
 
-bool makeDirs(const std::string& path) {
-  std::string cur;
-  std::stringstream ss(path);
-  std::string part;
-  if (!path.empty() && path[0] == '/') cur = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    cur += part + "/";
-    if (mkdir(cur.c_str(), 0775) != 0 && errno != EEXIST) return false;
-  }
-  return true;
-}
-
-bool fileExists(const std::string& p) {
-  struct stat st;
-  return stat(p.c_str(), &st) == 0;
-}
-
-std::string baseName(const std::string& path) {
-  std::string b = path.substr(path.find_last_of('/') + 1);
-  if (b.size() > 4 && b.compare(b.size() - 4, 4, ".bag") == 0) b.resize(b.size() - 4);
-  return b;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Parameters: the nodelet's flat keys (config/safety_map.yaml), core fields only.
-
-// Applies the keys of `root` (a map) that name core parameters; `unknown` receives the others.
-std::string applyParams(const YAML::Node& root, const std::string& path,
-                        ssm::StereoFrameProcessorConfig* c, std::vector<std::string>* unknown) {
-  ssm::SafetyMapperConfig& m = c->mapper;
-  ssm::DisparityPipelineConfig& dp = c->disparity;
-  std::map<std::string, std::function<void(const YAML::Node&)>> table = {
-      {"voxel_size", [&](const YAML::Node& n) { m.grid.voxel_size = n.as<double>(); }},
-      {"size_x", [&](const YAML::Node& n) { m.grid.size_x = n.as<double>(); }},
-      {"size_y", [&](const YAML::Node& n) { m.grid.size_y = n.as<double>(); }},
-      {"size_z", [&](const YAML::Node& n) { m.grid.size_z = n.as<double>(); }},
-      {"z_below_robot", [&](const YAML::Node& n) { m.grid.z_below_robot = n.as<double>(); }},
-      {"incr_high", [&](const YAML::Node& n) { m.grid.incr_high = n.as<int>(); }},
-      {"incr_low", [&](const YAML::Node& n) { m.grid.incr_low = n.as<int>(); }},
-      {"decr", [&](const YAML::Node& n) { m.grid.decr = n.as<int>(); }},
-      {"occ_threshold", [&](const YAML::Node& n) { m.grid.occ_threshold = n.as<int>(); }},
-      {"lop_min", [&](const YAML::Node& n) { m.grid.lop_min = n.as<int>(); }},
-      {"lop_max", [&](const YAML::Node& n) { m.grid.lop_max = n.as<int>(); }},
-      {"point_list_capacity",
-       [&](const YAML::Node& n) { m.grid.point_list_capacity = n.as<int>(); }},
-      {"max_range", [&](const YAML::Node& n) { m.grid.max_range = n.as<double>(); }},
-      {"min_range", [&](const YAML::Node& n) { m.grid.min_range = n.as<double>(); }},
-      {"robot_height", [&](const YAML::Node& n) { m.height_map.robot_height = n.as<double>(); }},
-      {"planning_radius",
-       [&](const YAML::Node& n) { m.segmentation.planning_radius = n.as<double>(); }},
-      {"height_tolerance",
-       [&](const YAML::Node& n) { m.segmentation.height_tolerance = n.as<int>(); }},
-      {"connectivity", [&](const YAML::Node& n) { m.segmentation.connectivity = n.as<int>(); }},
-      {"seed_radius", [&](const YAML::Node& n) { m.segmentation.seed_radius = n.as<double>(); }},
-      {"min_points", [&](const YAML::Node& n) { m.plane_fit.min_points = n.as<int>(); }},
-      {"min_xy_stddev", [&](const YAML::Node& n) { m.plane_fit.min_xy_stddev = n.as<double>(); }},
-      {"max_slope_deg", [&](const YAML::Node& n) { m.labelling.max_slope_deg = n.as<double>(); }},
-      {"level_slope_deg",
-       [&](const YAML::Node& n) { m.labelling.level_slope_deg = n.as<double>(); }},
-      {"min_segment_cells",
-       [&](const YAML::Node& n) { m.labelling.min_segment_cells = n.as<int>(); }},
-      {"thin_ratio", [&](const YAML::Node& n) { m.labelling.thin_ratio = n.as<double>(); }},
-      {"max_step_height",
-       [&](const YAML::Node& n) { m.labelling.max_step_height = n.as<double>(); }},
-      {"min_passage_cells",
-       [&](const YAML::Node& n) { m.labelling.min_passage_cells = n.as<int>(); }},
-      {"mark_drop_offs", [&](const YAML::Node& n) { m.labelling.mark_drop_offs = n.as<bool>(); }},
-      {"drop_off_radius",
-       [&](const YAML::Node& n) { m.labelling.drop_off_radius = n.as<double>(); }},
-      {"drop_off_min_drop",
-       [&](const YAML::Node& n) { m.labelling.drop_off_min_drop = n.as<double>(); }},
-      {"skip_stationary_frames",
-       [&](const YAML::Node& n) { m.skip_stationary_frames = n.as<bool>(); }},
-      {"stationary_translation",
-       [&](const YAML::Node& n) { m.stationary_translation = n.as<double>(); }},
-      {"stationary_rotation_deg",
-       [&](const YAML::Node& n) { m.stationary_rotation_deg = n.as<double>(); }},
-      {"scroll_with_robot", [&](const YAML::Node& n) { m.scroll_with_robot = n.as<bool>(); }},
-      {"disparity_step", [&](const YAML::Node& n) { c->disparity_step = n.as<int>(); }},
-      // Disparity stage (disparity_pipeline.h), for comparisons; the nodelets' disparity comes
-      // from the disparity nodelet's own parameters.
-      {"matcher",
-       [&](const YAML::Node& n) {
-         const std::string v = n.as<std::string>();
-         if (v != "bm" && v != "sgbm") throw std::runtime_error("matcher must be bm or sgbm");
-         dp.matcher = v == "bm" ? ssm::StereoMatcherType::kBlockMatching
-                                : ssm::StereoMatcherType::kSemiGlobal;
-       }},
-      {"num_disparities", [&](const YAML::Node& n) { dp.num_disparities = n.as<int>(); }},
-      {"block_size", [&](const YAML::Node& n) { dp.block_size = n.as<int>(); }},
-      {"enable_uniqueness", [&](const YAML::Node& n) { dp.enable_uniqueness = n.as<bool>(); }},
-      {"enable_texture", [&](const YAML::Node& n) { dp.enable_texture = n.as<bool>(); }},
-      {"enable_left_right", [&](const YAML::Node& n) { dp.enable_left_right = n.as<bool>(); }},
-      {"enable_neighbour_consistency",
-       [&](const YAML::Node& n) { dp.enable_neighbour_consistency = n.as<bool>(); }},
-      {"enable_spike_removal",
-       [&](const YAML::Node& n) { dp.enable_spike_removal = n.as<bool>(); }},
-  };
-  if (!root.IsMap()) return path + ": not a map of parameters";
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    auto it = table.find(key);
-    if (it == table.end()) {  // the nodelet's own settings (frames, queues, ...)
-      if (unknown != nullptr) unknown->push_back(key);
-      continue;
-    }
-    try {
-      it->second(kv.second);
-    } catch (const std::exception& e) {
-      return path + ": bad value for " + key + ": " + e.what();
-    }
-  }
-  return c->validate();
-}
-
-std::string loadParams(const std::string& path, ssm::StereoFrameProcessorConfig* c) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const std::exception& e) {
-    return "cannot read " + path + ": " + e.what();
-  }
-  return applyParams(root, path, c, nullptr);
-}
-
-// --set key=value (same keys as the YAML file).
-std::string setParam(const std::string& assignment, ssm::StereoFrameProcessorConfig* c) {
-  const std::size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) return "--set needs key=value, got " + assignment;
-  YAML::Node root;
-  try {
-    root[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
-  } catch (const std::exception& e) {
-    return "--set " + assignment + ": " + e.what();
-  }
-  std::vector<std::string> unknown;
-  const std::string e = applyParams(root, "--set", c, &unknown);
-  if (!e.empty()) return e;
-  if (!unknown.empty()) return "--set: unknown core parameter " + unknown.front();
-  return "";
-}
-
-// ---------------------------------------------------------------------------------------------
-// Ground truth of a dataset: labels from the bag (/ground_truth/labels) or <bag>_gt/gt_labels.pgm,
-// planes and obstacles from <bag>_gt/*.yaml.
-
-struct Board {
-  std::string name;
-  ssm::BoardBox box;
-};
-
-struct Dataset {
-  std::string name;
-  std::string bag;
-  std::string gt_dir;
-  ssm::LabelGrid gt;
-  std::vector<ssm::ReferencePlane> planes;
-  std::vector<Board> boards;
-  bool latency_only = false;
-  bool untextured = false;
-  std::string note;
-};
-
-Eigen::Vector3d vec3(const YAML::Node& n) {
-  return Eigen::Vector3d(n[0].as<double>(), n[1].as<double>(), n[2].as<double>());
-}
-
-std::string loadLabelsFromBag(const std::string& bag_path, ssm::LabelGrid* gt) {
-  rosbag::Bag bag;
-  try {
-    bag.open(bag_path, rosbag::bagmode::Read);
-    rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/ground_truth/labels"}));
-    for (const rosbag::MessageInstance& m : view) {
-      auto g = m.instantiate<nav_msgs::OccupancyGrid>();
-      if (!g) continue;
-      const double res = g->info.resolution;
-      if (!(res > 0.0)) return "ground-truth grid has no resolution";
-      gt->resolution = res;
-      gt->width = static_cast<int>(g->info.width);
-      gt->height = static_cast<int>(g->info.height);
-      // The origin is the corner of cell (min_u, min_v), cell (u, v) centred at (u l, v l).
-      gt->min_u = static_cast<int>(std::lround(g->info.origin.position.x / res + 0.5));
-      gt->min_v = static_cast<int>(std::lround(g->info.origin.position.y / res + 0.5));
-      gt->labels.resize(g->data.size());
-      for (std::size_t k = 0; k < g->data.size(); ++k) {
-        const int v = g->data[k];
-        gt->labels[k] = v >= 0 && v <= 4 ? static_cast<SafetyLabel>(v) : SafetyLabel::kUnknown;
-      }
-      return gt->validate();
-    }
-  } catch (const std::exception& e) {
-    return std::string("cannot read ") + bag_path + ": " + e.what();
-  }
-  return "no /ground_truth/labels in " + bag_path;
-}
-
-std::string loadLabelsFromDir(const std::string& dir, ssm::LabelGrid* gt) {
-  YAML::Node y;
-  try {
-    y = YAML::LoadFile(dir + "/gt_map.yaml");
-  } catch (const std::exception& e) {
-    return "cannot read " + dir + "/gt_map.yaml";
-  }
-  const cv::Mat img = cv::imread(dir + "/gt_labels.pgm", cv::IMREAD_UNCHANGED);
-  if (img.empty() || img.type() != CV_8UC1) return "cannot read " + dir + "/gt_labels.pgm";
-  gt->resolution = y["resolution"].as<double>();
-  gt->min_u = y["grid"]["min_u"].as<int>();
-  gt->min_v = y["grid"]["min_v"].as<int>();
-  gt->width = img.cols;
-  gt->height = img.rows;
-  gt->labels.assign(static_cast<std::size_t>(img.cols) * img.rows, SafetyLabel::kUnknown);
-  for (int r = 0; r < img.rows; ++r) {  // image rows run from the largest v down
-    for (int c = 0; c < img.cols; ++c) {
-      const int v = img.at<std::uint8_t>(r, c);
-      gt->labels[static_cast<std::size_t>(img.rows - 1 - r) * img.cols + c] =
-          v <= 4 ? static_cast<SafetyLabel>(v) : SafetyLabel::kUnknown;
-    }
-  }
-  return gt->validate();
-}
-
-std::string loadDataset(const std::string& bag, bool latency_only, Dataset* d) {
-  d->bag = bag;
-  d->name = baseName(bag);
-  d->gt_dir =
-      bag.substr(
-          0, bag.size() - (bag.size() > 4 && bag.compare(bag.size() - 4, 4, ".bag") == 0 ? 4 : 0)) +
-      "_gt";
-  d->latency_only = latency_only;
-  std::string e = loadLabelsFromBag(bag, &d->gt);
-  if (!e.empty()) {
-    const std::string e2 = loadLabelsFromDir(d->gt_dir, &d->gt);
-    if (!e2.empty()) return e + "; " + e2;
-  }
-  try {
-    if (fileExists(d->gt_dir + "/gt_planes.yaml")) {
-      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/gt_planes.yaml");
-      for (const auto& p : y["planes"]) {
-        ssm::ReferencePlane r;
-        r.name = p["name"].as<std::string>();
-        r.a = p["a"].as<double>();
-        r.b = p["b"].as<double>();
-        r.c = p["c"].as<double>();
-        for (const auto& q : p["polygon"])
-          r.footprint.emplace_back(q[0].as<double>(), q[1].as<double>());
-        d->planes.push_back(r);
-      }
-    } else {
-      d->note += "no gt_planes.yaml: no plane accuracy. ";
-    }
-    if (fileExists(d->gt_dir + "/gt_obstacles.yaml")) {
-      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/gt_obstacles.yaml");
-      for (const auto& o : y["obstacles"]) {
-        if (o["type"].as<std::string>() != "board") continue;
-        Board b;
-        b.name = o["name"].as<std::string>();
-        b.box.center = vec3(o["center"]);
-        b.box.half_size = 0.5 * vec3(o["size"]);
-        const YAML::Node q = o["rotation"];
-        b.box.rotation = Eigen::Quaterniond(q[3].as<double>(), q[0].as<double>(), q[1].as<double>(),
-                                            q[2].as<double>())
-                             .normalized()
-                             .toRotationMatrix();
-        d->boards.push_back(b);
-      }
-    }
-    if (fileExists(d->gt_dir + "/dataset.yaml")) {
-      const YAML::Node y = YAML::LoadFile(d->gt_dir + "/dataset.yaml");
-      const std::string scene = y["scene"] ? y["scene"].as<std::string>() : d->name;
-      d->untextured = scene.find("untextured") != std::string::npos;
-    }
-  } catch (const std::exception& ex) {
-    return "bad ground-truth files in " + d->gt_dir + ": " + ex.what();
-  }
-  if (latency_only && d->boards.empty()) return "no board (type: board) in " + d->gt_dir;
-  return "";
-}
-
 // ---------------------------------------------------------------------------------------------
 // Statistics
 
@@ -549,135 +276,6 @@ struct Run {
   int decr = 1;
   std::vector<DatasetResult> datasets;
 };
-
-// ---------------------------------------------------------------------------------------------
-// Pictures: safety map beside the GT map in the colours of 000 Fig. 4(a).
-
-cv::Vec3b labelColour(SafetyLabel l) {  // BGR
-  switch (l) {
-    case SafetyLabel::kNonGround:
-      return {0, 0, 0};  // black
-    case SafetyLabel::kLevel:
-      return {255, 255, 255};  // white
-    case SafetyLabel::kInclined:
-      return {0, 230, 255};  // yellow
-    case SafetyLabel::kUnknown:
-      return {200, 200, 200};  // light grey
-    case SafetyLabel::kUnexamined:
-    default:
-      return {105, 105, 105};  // dark grey
-  }
-}
-const cv::Vec3b kDropOffColour(255, 0, 0);  // blue
-
-cv::Vec3b outcomeColour(ssm::CellOutcome o) {
-  switch (o) {
-    case ssm::CellOutcome::kTruePositive:
-      return {40, 40, 40};
-    case ssm::CellOutcome::kTrueNegative:
-      return {235, 245, 235};
-    case ssm::CellOutcome::kFalsePositive:
-      return {0, 140, 255};  // orange
-    case ssm::CellOutcome::kFalseNegative:
-      return {0, 0, 230};  // red
-    default:
-      return {170, 170, 170};
-  }
-}
-
-constexpr int kScale = 4;
-
-// One panel of the map's window, +x right, +y up, kScale pixels per cell.
-cv::Mat panel(const ssm::SafetyMap& map,
-              const std::function<cv::Vec3b(int u, int v, int k)>& colour) {
-  cv::Mat img(map.height * kScale, map.width * kScale, CV_8UC3);
-  for (int r = 0; r < map.height; ++r) {
-    const int v = map.min_v + map.height - 1 - r;
-    for (int c = 0; c < map.width; ++c) {
-      const int u = map.min_u + c;
-      img(cv::Rect(c * kScale, r * kScale, kScale, kScale)) = colour(u, v, map.index(u, v));
-    }
-  }
-  return img;
-}
-
-void drawRobot(cv::Mat* img, const ssm::SafetyMap& map, const Eigen::Vector3d& position,
-               double yaw) {
-  const double px = (position.x() / map.resolution - map.min_u + 0.5) * kScale;
-  const double py = (map.min_v + map.height - 0.5 - position.y() / map.resolution) * kScale;
-  const double s = 3.0 * kScale;  // 000 Fig. 7: the robot is a red triangle
-  std::vector<cv::Point> tri;
-  for (double a : {0.0, 2.5, -2.5}) {
-    const double r = a == 0.0 ? s : 0.7 * s;
-    tri.emplace_back(static_cast<int>(px + r * std::cos(yaw + a)),
-                     static_cast<int>(py - r * std::sin(yaw + a)));
-  }
-  cv::fillConvexPoly(*img, tri, cv::Scalar(0, 0, 255), cv::LINE_AA);
-}
-
-cv::Mat titled(const cv::Mat& img, const std::string& title) {
-  cv::Mat out(img.rows + 28, img.cols, CV_8UC3, cv::Scalar(255, 255, 255));
-  img.copyTo(out(cv::Rect(0, 28, img.cols, img.rows)));
-  cv::putText(out, title, cv::Point(6, 20), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1,
-              cv::LINE_AA);
-  return out;
-}
-
-cv::Mat legend(int width) {
-  cv::Mat out(52, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  struct Item {
-    const char* name;
-    cv::Vec3b c;
-  };
-  const Item row1[] = {{"Level", labelColour(SafetyLabel::kLevel)},
-                       {"Inclined", labelColour(SafetyLabel::kInclined)},
-                       {"Non-ground", labelColour(SafetyLabel::kNonGround)},
-                       {"Unknown", labelColour(SafetyLabel::kUnknown)},
-                       {"Unexamined", labelColour(SafetyLabel::kUnexamined)},
-                       {"Drop-off edge", kDropOffColour}};
-  const Item row2[] = {{"TP", outcomeColour(ssm::CellOutcome::kTruePositive)},
-                       {"TN", outcomeColour(ssm::CellOutcome::kTrueNegative)},
-                       {"FP", outcomeColour(ssm::CellOutcome::kFalsePositive)},
-                       {"FN", outcomeColour(ssm::CellOutcome::kFalseNegative)},
-                       {"unclassified", outcomeColour(ssm::CellOutcome::kUnclassified)}};
-  auto draw = [&](const Item* items, int n, int y) {
-    int x = 6;
-    for (int i = 0; i < n; ++i) {
-      cv::rectangle(out, cv::Rect(x, y, 14, 14), cv::Scalar(items[i].c), cv::FILLED);
-      cv::rectangle(out, cv::Rect(x, y, 14, 14), cv::Scalar(90, 90, 90), 1);
-      cv::putText(out, items[i].name, cv::Point(x + 18, y + 12), cv::FONT_HERSHEY_SIMPLEX, 0.42,
-                  cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-      x += 28 + 8 * static_cast<int>(std::string(items[i].name).size());
-    }
-  };
-  draw(row1, 6, 6);
-  draw(row2, 5, 30);
-  return out;
-}
-
-cv::Mat mapBesideGroundTruth(const ssm::SafetyMap& map, const ssm::LabelGrid& gt,
-                             const std::vector<ssm::CellOutcome>& outcomes,
-                             const Eigen::Vector3d& robot, double yaw, const std::string& title) {
-  cv::Mat a = panel(map, [&](int, int, int k) {
-    return map.drop_off.size() == map.labels.size() && map.drop_off[k] ? kDropOffColour
-                                                                       : labelColour(map.labels[k]);
-  });
-  cv::Mat b = panel(map, [&](int u, int v, int) { return labelColour(gt.at(u, v)); });
-  cv::Mat c = panel(map, [&](int, int, int k) {
-    return k < static_cast<int>(outcomes.size()) ? outcomeColour(outcomes[k])
-                                                 : outcomeColour(ssm::CellOutcome::kUnclassified);
-  });
-  for (cv::Mat* m : {&a, &b, &c})
-    drawRobot(m, map, robot, yaw);
-  std::vector<cv::Mat> row = {titled(a, "safety map: " + title), titled(b, "ground truth"),
-                              titled(c, "errors (unsafe = positive)")};
-  cv::Mat sep(row[0].rows, 6, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::Mat out;
-  cv::hconcat(std::vector<cv::Mat>{row[0], sep, row[1], sep, row[2]}, out);
-  cv::Mat full;
-  cv::vconcat(out, legend(out.cols), full);
-  return full;
-}
 
 // The hybrid 3D model of 000 Fig. 4(b): occupied voxels of Non-ground cells as grey cubes, safe
 // segments as their planes over their cells (Level green, Inclined yellow), rendered with a
@@ -804,68 +402,6 @@ cv::Mat render3dModel(const ssm::SafetyMapper& mapper, const Eigen::Vector3d& ro
 // ---------------------------------------------------------------------------------------------
 // Bag reading
 
-struct StereoPair {
-  sensor_msgs::ImageConstPtr left, right;
-  sensor_msgs::CameraInfoConstPtr left_info, right_info;
-};
-
-std::string cameraModelOf(const sensor_msgs::CameraInfo& l, const sensor_msgs::CameraInfo& r,
-                          ssm::StereoCameraModel* out) {
-  image_geometry::StereoCameraModel m;
-  if (!m.fromCameraInfo(l, r)) return "camera_info pair is not a valid stereo model";
-  ssm::StereoCameraModel c;
-  c.fx = m.left().fx();
-  c.fy = m.left().fy();
-  c.cx = m.left().cx();
-  c.cy = m.left().cy();
-  c.cx_right = m.right().cx();
-  c.baseline = m.baseline();
-  c.width = static_cast<int>(l.width);
-  c.height = static_cast<int>(l.height);
-  const std::string e = c.validate();
-  if (!e.empty()) return e;
-  *out = c;
-  return "";
-}
-
-bool toMat(const sensor_msgs::ImageConstPtr& msg, cv::Mat* out, std::string* err) {
-  try {
-    cv_bridge::CvImageConstPtr cv = cv_bridge::toCvShare(msg);
-    if (cv->image.depth() == CV_8U &&
-        (cv->image.channels() == 1 || cv->image.channels() == 3 || cv->image.channels() == 4)) {
-      *out = cv->image;
-    } else {
-      *out = cv_bridge::toCvCopy(msg, "mono8")->image;
-    }
-    return true;
-  } catch (const std::exception& e) {
-    *err = std::string("image: ") + e.what();
-    return false;
-  }
-}
-
-// Loads /tf and /tf_static of a bag into a buffer.
-std::string fillTf(rosbag::Bag& bag, tf2::BufferCore* tf) {
-  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{"/tf", "/tf_static"}));
-  std::size_t n = 0;
-  for (const rosbag::MessageInstance& m : view) {
-    auto msg = m.instantiate<tf2_msgs::TFMessage>();
-    if (!msg) continue;
-    const bool is_static = m.getTopic() == "/tf_static";
-    for (const auto& t : msg->transforms) {
-      tf->setTransform(t, "bag", is_static);
-      ++n;
-    }
-  }
-  return n > 0 ? "" : "no /tf or /tf_static in the bag";
-}
-
-double yawOf(const Eigen::Isometry3d& T_fixed_sensor) {
-  // Heading of the optical axis projected on the ground.
-  const Eigen::Vector3d z = T_fixed_sensor.linear() * Eigen::Vector3d::UnitZ();
-  return std::atan2(z.y(), z.x());
-}
-
 bool boardInView(const ssm::BoardBox& b, const Eigen::Isometry3d& T_fixed_sensor,
                  const ssm::StereoCameraModel& cam) {
   const Eigen::Vector3d p = T_fixed_sensor.inverse() * b.center;
@@ -893,7 +429,7 @@ struct MapperSlot {
   DatasetResult* result = nullptr;
 };
 
-void evaluateFrameMap(const Dataset& ds, const ssm::SafetyMap& map, int frame, double stamp,
+void evaluateFrameMap(const ssm::Dataset& ds, const ssm::SafetyMap& map, int frame, double stamp,
                       bool protocol_frame, FrameRecord* rec, DatasetResult* res,
                       std::vector<ssm::CellOutcome>* outcomes) {
   rec->robot_segment = map.robot_segment >= 0;
@@ -972,7 +508,7 @@ std::string writeFrameCsv(const std::string& path, const DatasetResult& r, const
 }
 
 std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorConfig& base,
-                            const std::vector<Dataset>& datasets, std::vector<Run>* runs) {
+                            const std::vector<ssm::Dataset>& datasets, std::vector<Run>* runs) {
   runs->clear();
   for (int d : opt.decr) {
     Run r;
@@ -984,7 +520,7 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
   makeDirs(opt.out + "/frames");
   bool model_written = !opt.model;
 
-  for (const Dataset& ds : datasets) {
+  for (const ssm::Dataset& ds : datasets) {
     const Clock::time_point t_start = Clock::now();
     std::vector<MapperSlot> slots(opt.decr.size());
     for (std::size_t i = 0; i < opt.decr.size(); ++i) {
@@ -995,31 +531,24 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
       slots[i].result = &(*runs)[i].datasets.back();
       slots[i].result->name = ds.name;
       slots[i].result->latency_only = ds.latency_only;
-      for (const Board& b : ds.boards) {
+      for (const ssm::DatasetBoard& b : ds.boards) {
         LatencyResult l;
         l.board = b.name;
         slots[i].result->latency.push_back(l);
       }
     }
 
-    rosbag::Bag bag;
-    try {
-      bag.open(ds.bag, rosbag::bagmode::Read);
-    } catch (const std::exception& e) {
-      return "cannot open " + ds.bag + ": " + e.what();
-    }
-    const std::string ns = "/" + opt.camera;
-    const std::string t_left = ns + "/left/image_rect", t_right = ns + "/right/image_rect";
-    const std::string t_linfo = ns + "/left/camera_info", t_rinfo = ns + "/right/camera_info";
-    rosbag::View all(bag);
-    const double bag_seconds = (all.getEndTime() - all.getBeginTime()).toSec();
-    tf2::BufferCore tf(ros::Duration(std::max(60.0, bag_seconds + 60.0)));
-    std::string e = fillTf(bag, &tf);
-    if (!e.empty()) return ds.bag + ": " + e;
-    int pairs_total = static_cast<int>(
-        rosbag::View(bag, rosbag::TopicQuery(std::vector<std::string>{t_left})).size());
-    if (pairs_total == 0) return ds.bag + ": no " + t_left;
-    if (opt.max_frames > 0) pairs_total = std::min<long>(pairs_total, opt.max_frames);
+    ssm::StereoBagReaderOptions ro;
+    ro.camera = opt.camera;
+    ro.fixed_frame = opt.fixed_frame;
+    ro.base_frame = opt.base_frame;
+    ro.scan_topic.clear();
+    ro.max_frames = opt.max_frames;
+    ssm::StereoBagReader reader;
+    std::string e = reader.open(ds.bag, ro);
+    if (!e.empty()) return e;
+    const double bag_seconds = reader.bagSeconds();
+    const int pairs_total = reader.pairCount();
 
     // Frames whose planes enter the paper's protocol (000 Sec. VII-C: 5 random frames) and
     // frames whose maps are drawn.
@@ -1029,77 +558,35 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
     for (int k = 1; k <= opt.images; ++k)
       image_pending.insert(k * pairs_total / (opt.images + 1));
 
-    rosbag::View view(
-        bag, rosbag::TopicQuery(std::vector<std::string>{t_left, t_right, t_linfo, t_rinfo}));
-    std::map<ros::Time, StereoPair> pending;
-    sensor_msgs::CameraInfoConstPtr last_linfo, last_rinfo;
-    int pair_index = -1;
     bool any_protocol_due = false, any_image_due = false;
     std::vector<ssm::CellOutcome> outcomes;
+    ssm::StereoBagFrame frame;
 
-    for (const rosbag::MessageInstance& m : view) {
-      const std::string& topic = m.getTopic();
-      ros::Time stamp;
-      if (topic == t_linfo || topic == t_rinfo) {
-        auto info = m.instantiate<sensor_msgs::CameraInfo>();
-        if (!info) continue;
-        (topic == t_linfo ? last_linfo : last_rinfo) = info;
-        continue;
-      }
-      auto img = m.instantiate<sensor_msgs::Image>();
-      if (!img) continue;
-      stamp = img->header.stamp;
-      StereoPair& p = pending[stamp];
-      (topic == t_left ? p.left : p.right) = img;
-      if (!p.left || !p.right) continue;
-      const StereoPair pair = p;
-      pending.erase(pending.begin(), pending.upper_bound(stamp));  // this and older incomplete ones
-      ++pair_index;
-      if (opt.max_frames > 0 && pair_index >= opt.max_frames) break;
+    while (reader.next(&frame)) {
+      const int pair_index = frame.index;
+      const ros::Time stamp = frame.stamp;
       if (protocol_pending.count(pair_index)) any_protocol_due = true;
       if (image_pending.count(pair_index)) any_image_due = true;
       if (pair_index % opt.every != 0) continue;
       for (auto& s : slots)
         ++s.result->pairs;
-
-      auto reject = [&](const std::string& why) {
+      if (!frame.error.empty()) {
         for (auto& s : slots) {
           ++s.result->rejected;
-          ++s.result->problems[why];
+          ++s.result->problems[frame.error];
           FrameRecord rec;
           rec.index = pair_index;
           rec.stamp = stamp.toSec();
           rec.status = "rejected";
           s.result->frames.push_back(rec);
         }
-      };
-      if (!last_linfo || !last_rinfo) {
-        reject("no camera_info yet");
         continue;
       }
-      ssm::StereoCameraModel cam;
-      e = cameraModelOf(*last_linfo, *last_rinfo, &cam);
-      if (!e.empty()) {
-        reject("camera model: " + e);
-        continue;
-      }
-      Eigen::Isometry3d T_fixed_sensor;
-      Eigen::Vector3d robot;
-      try {
-        T_fixed_sensor = tf2::transformToEigen(
-            tf.lookupTransform(opt.fixed_frame, pair.left->header.frame_id, stamp));
-        const auto base = tf.lookupTransform(opt.fixed_frame, opt.base_frame, stamp);
-        robot = Eigen::Vector3d(base.transform.translation.x, base.transform.translation.y,
-                                base.transform.translation.z);
-      } catch (const tf2::TransformException& ex) {
-        reject(std::string("tf: ") + ex.what());
-        continue;
-      }
-      cv::Mat left, right;
-      if (!toMat(pair.left, &left, &e) || !toMat(pair.right, &right, &e)) {
-        reject(e);
-        continue;
-      }
+      const ssm::StereoCameraModel& cam = frame.camera;
+      const Eigen::Isometry3d& T_fixed_sensor = frame.T_fixed_sensor;
+      const Eigen::Vector3d& robot = frame.robot;
+      const cv::Mat& left = frame.left;
+      const cv::Mat& right = frame.right;
 
       for (std::size_t i = 0; i < slots.size(); ++i) {
         MapperSlot& s = slots[i];
@@ -1158,9 +645,9 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
             char title[96];
             std::snprintf(title, sizeof(title), "%s frame %d, decr %d", ds.name.c_str(), pair_index,
                           opt.decr[i]);
-            cv::imwrite(
-                opt.out + "/maps/" + name,
-                mapBesideGroundTruth(map, ds.gt, outcomes, robot, yawOf(T_fixed_sensor), title));
+            cv::imwrite(opt.out + "/maps/" + name,
+                        mapBesideGroundTruth(map, ds.gt, outcomes, robot,
+                                             ssm::yawOfOpticalAxis(T_fixed_sensor), title));
             res.images.push_back("maps/" + name);
           }
         } else {
@@ -1220,7 +707,7 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
                                     0.0);
         double yaw = 0.0;
         try {
-          const auto t = tf.lookupTransform(opt.fixed_frame, opt.base_frame, ros::Time(0));
+          const auto t = reader.tf().lookupTransform(opt.fixed_frame, opt.base_frame, ros::Time(0));
           yaw = std::atan2(2.0 * (t.transform.rotation.w * t.transform.rotation.z),
                            1.0 - 2.0 * t.transform.rotation.z * t.transform.rotation.z);
           cv::imwrite(
@@ -1286,7 +773,7 @@ ssm::SafetyMap fromMessage(const stereo_safety_map::SafetyMapMsg& msg) {
   return m;
 }
 
-std::string evaluateRecorded(const Options& opt, const Dataset& ds, std::vector<Run>* runs) {
+std::string evaluateRecorded(const Options& opt, const ssm::Dataset& ds, std::vector<Run>* runs) {
   runs->assign(1, Run());
   Run& run = runs->front();
   run.label = "recorded";
@@ -1940,14 +1427,14 @@ int main(int argc, char** argv) {
 
   ssm::StereoFrameProcessorConfig config;
   if (!opt.params.empty()) {
-    const std::string e = loadParams(opt.params, &config);
+    const std::string e = ssm::loadCoreParams(opt.params, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
     }
   }
   for (const std::string& a : opt.sets) {
-    const std::string e = setParam(a, &config);
+    const std::string e = ssm::setCoreParam(a, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
@@ -1967,11 +1454,11 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  std::vector<Dataset> datasets;
+  std::vector<ssm::Dataset> datasets;
   for (int pass = 0; pass < 2; ++pass) {
     for (const std::string& b : pass == 0 ? opt.bags : opt.latency_bags) {
-      Dataset d;
-      const std::string e = loadDataset(b, pass == 1, &d);
+      ssm::Dataset d;
+      const std::string e = ssm::loadDataset(b, pass == 1, &d);
       if (!e.empty()) {
         std::fprintf(stderr, "error: %s\n", e.c_str());
         return 1;
