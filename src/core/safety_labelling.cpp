@@ -13,6 +13,10 @@ namespace {
 enum SegState : std::uint8_t { kStUnexamined, kStUnknown, kStNonGround, kStSafe };
 
 constexpr int kDu[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+// Distinct segments one boundary cell is compared with: its 8 neighbours and, across gaps, at
+// most (2 (max_gap_cells + 1) + 1)^2 - 1 = 528 cells; more than 64 distinct segments around one
+// cell do not occur in a height map (each needs its own cells).
+constexpr int kMaxNeighbourSegments = 64;
 constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 
 std::int16_t toInt16Height(std::int32_t w) {
@@ -41,6 +45,7 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(level_slope_deg) || level_slope_deg < 0.0 || level_slope_deg > max_slope_deg) {
     return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
   }
+  if (max_gap_cells < 0 || max_gap_cells > 10) return "max_gap_cells must be in [0, 10]";
   if (!std::isfinite(drop_off_radius) || drop_off_radius < 0.0 || drop_off_radius > 10.0) {
     return "drop_off_radius must be in [0, 10] m";
   }
@@ -109,6 +114,9 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
 
   // Interior and boundary cells (000, Sec. VI): interior cells have all 8 neighbours in their
   // own segment; cells on the map's edge have fewer than 8 and are boundary cells.
+  const int gap = config_.max_gap_cells;
+  const int reach = gap + 1;
+  const bool measured = config_.measured_step_test;
   m.segments.resize(nseg);
   boundary_.assign(n, 0);
   contacts_.clear();
@@ -121,11 +129,29 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     info.num_boundary = 0;
     info.plane = k < static_cast<int>(planes.size()) ? planes[k] : GroundPlane();
     info.reachable = false;
+    info.island = k < static_cast<int>(segs.segment_island.size()) && segs.segment_island[k] != 0;
     const GroundPlane* ps = planeOf(k);
     for (const int c : info.cells) {
       const int u = c % width, v = c / width;
-      int nb_seg[8];
+      int nb_seg[kMaxNeighbourSegments];
+      bool nb_close[kMaxNeighbourSegments];  // a cell of it has a measured height within h_T
       int num_nb_seg = 0;
+      const float zc = hm.surfaceHeightAtIndex(c);
+      // Records cell cn of segment r as a neighbour of c.
+      auto addNeighbour = [&](int r, int cn) {
+        int j = 0;
+        while (j < num_nb_seg && nb_seg[j] != r)
+          ++j;
+        if (j == num_nb_seg) {
+          if (num_nb_seg >= kMaxNeighbourSegments) return;
+          nb_seg[num_nb_seg] = r;
+          nb_close[num_nb_seg++] = false;
+        }
+        if (measured) {
+          const float zn = hm.surfaceHeightAtIndex(cn);
+          nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: false
+        }
+      };
       bool interior = true;
       for (int j = 0; j < 8; ++j) {
         const int un = u + kDu[j], vn = v + kDv[j];
@@ -136,10 +162,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         const int r = segs.segment_of[vn * width + un];
         if (r == k) continue;
         interior = false;
-        if (r < 0) continue;
-        if (std::find(nb_seg, nb_seg + num_nb_seg, r) == nb_seg + num_nb_seg) {
-          nb_seg[num_nb_seg++] = r;
-        }
+        if (r >= 0) addNeighbour(r, vn * width + un);
       }
       if (interior) {
         ++info.num_interior;
@@ -147,13 +170,37 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       }
       ++info.num_boundary;
       boundary_[c] = 1;
-      // Alg. 2 steps 14-19 for this cell against every neighbouring segment.
+      if (gap > 0) {
+        // Segments across a gap of unobserved columns (SafetyLabellingConfig::max_gap_cells).
+        for (int dv = -reach; dv <= reach; ++dv) {
+          const int vn = v + dv;
+          if (vn < 0 || vn >= m.height) continue;
+          for (int du = -reach; du <= reach; ++du) {
+            const int un = u + du;
+            const int steps = std::max(std::abs(du), std::abs(dv));
+            if (steps < 2 || un < 0 || un >= width) continue;
+            const int r = segs.segment_of[vn * width + un];
+            if (r < 0 || r == k) continue;
+            bool open = true;
+            for (int t = 1; t < steps && open; ++t) {
+              const int ut = u + static_cast<int>(std::lround(static_cast<double>(du) * t / steps));
+              const int vt = v + static_cast<int>(std::lround(static_cast<double>(dv) * t / steps));
+              open = hm.atIndex(vt * width + ut) == HeightMap::kNoHeight;
+            }
+            if (open) addNeighbour(r, vn * width + un);
+          }
+        }
+      }
+      // Alg. 2 steps 14-19 for this cell against every neighbouring segment: the planes'
+      // heights at the cell's centre (000), or the measured surface heights of the cell and a
+      // neighbouring cell of the other segment (SafetyLabellingConfig::measured_step_test).
       const double xc = (m.min_u + u) * l, yc = (m.min_v + v) * l;
       for (int j = 0; j < num_nb_seg; ++j) {
         const GroundPlane* pr = planeOf(nb_seg[j]);
         int ok = 0;
         if (ps != nullptr && pr != nullptr) {
-          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height;
+          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
+               nb_close[j];
         }
         contacts_.push_back(Contact{k, nb_seg[j], ok});
       }

@@ -21,6 +21,25 @@ struct SafetyLabellingConfig {
   double max_step_height = 0.05;  ///< h_T [m]: largest plane height difference crossable (step 17)
   int min_passage_cells = 5;      ///< num_T: robot width in cells (Alg. 2 step 21)
   double level_slope_deg = 3.0;   ///< theta_T: steeper safe planes are Inclined (Alg. 2 step 28)
+  /// Neighbouring segments across unobserved cells (ours; 0 = 000 Sec. VI, where two segments
+  /// are neighbours only when boundary cells touch). Stereo leaves gaps in low-texture ground,
+  /// so the ground of one surface often falls apart into segments a cell or two apart. A
+  /// boundary cell of S and a cell of R at most max_gap_cells + 1 cells apart (Chebyshev) with
+  /// only columns without any height on the straight line between them count as neighbouring
+  /// boundary cells of Alg. 2 steps 11-19; the h_T and num_T tests are unchanged, so a drop
+  /// across a gap still separates. The gap cells themselves stay Unknown.
+  int max_gap_cells = 2;
+  /// Step test on measured heights as well (ours; false = 000 Alg. 2 steps 15-17 alone). The
+  /// paper compares the two segments' planes at a border cell's centre. A segment is a band of
+  /// one indexed height, so where a level floor runs into a ramp the floor's segment also holds
+  /// the ramp's first few decimetres, which its level plane does not model: at the border the
+  /// planes then differ by up to a voxel although the surface is continuous, and ramps become
+  /// unreachable. With this on, a border cell is also crossable when the measured surface
+  /// heights (HeightMap::surfaceHeightAtIndex: mean height of the column's top-voxel points) of
+  /// the cell and of a neighbouring cell of the other segment differ by less than h_T, which is
+  /// the ground truth's own test of a drivable transition. A step of h_T or more still fails
+  /// both tests.
+  bool measured_step_test = true;
 
   /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
   /// when it has an Unknown 8-neighbour and, within drop_off_radius [m] of its centre, a cell
