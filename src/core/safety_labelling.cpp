@@ -17,6 +17,8 @@ constexpr int kDu[8] = {1, -1, 0, 0, 1, 1, -1, -1};
 // most (2 (max_gap_cells + 1) + 1)^2 - 1 = 528 cells; more than 64 distinct segments around one
 // cell do not occur in a height map (each needs its own cells).
 constexpr int kMaxNeighbourSegments = 64;
+// Marks a cell whose local surface height is not computed yet (heights are far below it).
+constexpr float kLocalZPending = -1e30f;
 constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 
 std::int16_t toInt16Height(std::int32_t w) {
@@ -58,6 +60,28 @@ std::string SafetyLabellingConfig::validate() const {
 SafetyLabelling::SafetyLabelling(const SafetyLabellingConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument("SafetyLabellingConfig: " + err);
+}
+
+float SafetyLabelling::localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c) {
+  float& z = local_z_[c];
+  if (z != kLocalZPending) return z;  // computed before (NaN included)
+  const int k = segs.segment_of[c];
+  const int width = segs.width, u = c % width, v = c / width;
+  const int r = kLocalSurfaceRadius;
+  double sum = 0.0;
+  int count = 0;
+  for (int vn = std::max(0, v - r); vn <= std::min(segs.height - 1, v + r); ++vn) {
+    for (int un = std::max(0, u - r); un <= std::min(width - 1, u + r); ++un) {
+      const int cn = vn * width + un;
+      if (segs.segment_of[cn] != k) continue;
+      const float zn = hm.surfaceHeightAtIndex(cn);
+      if (std::isnan(zn)) continue;
+      sum += zn;
+      ++count;
+    }
+  }
+  z = count > 0 ? static_cast<float>(sum / count) : std::numeric_limits<float>::quiet_NaN();
+  return z;
 }
 
 int SafetyLabelling::okCount(int s, int r) const {
@@ -119,6 +143,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   const bool measured = config_.measured_step_test;
   m.segments.resize(nseg);
   boundary_.assign(n, 0);
+  if (measured) local_z_.assign(n, kLocalZPending);
   contacts_.clear();
   for (int k = 0; k < nseg; ++k) {
     SegmentInfo& info = m.segments[k];
@@ -136,7 +161,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       int nb_seg[kMaxNeighbourSegments];
       bool nb_close[kMaxNeighbourSegments];  // a cell of it has a measured height within h_T
       int num_nb_seg = 0;
-      const float zc = hm.surfaceHeightAtIndex(c);
+      const float zc = measured ? localSurfaceHeight(hm, segs, c) : 0.0f;
       // Records cell cn of segment r as a neighbour of c.
       auto addNeighbour = [&](int r, int cn) {
         int j = 0;
@@ -148,7 +173,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           nb_close[num_nb_seg++] = false;
         }
         if (measured) {
-          const float zn = hm.surfaceHeightAtIndex(cn);
+          const float zn = localSurfaceHeight(hm, segs, cn);
           nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: false
         }
       };
@@ -192,8 +217,9 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         }
       }
       // Alg. 2 steps 14-19 for this cell against every neighbouring segment: the planes'
-      // heights at the cell's centre (000), or the measured surface heights of the cell and a
-      // neighbouring cell of the other segment (SafetyLabellingConfig::measured_step_test).
+      // heights at the cell's centre (000), or the local measured surface heights of the two
+      // segments at this cell and at a neighbouring cell of the other segment
+      // (SafetyLabellingConfig::measured_step_test).
       const double xc = (m.min_u + u) * l, yc = (m.min_v + v) * l;
       for (int j = 0; j < num_nb_seg; ++j) {
         const GroundPlane* pr = planeOf(nb_seg[j]);

@@ -83,6 +83,9 @@ TEST(GroundSegmentationConfig, Validate) {
   c.height_tolerance = -1;
   EXPECT_NE(c.validate().find("height_tolerance"), std::string::npos);
   c = GroundSegmentationConfig();
+  c.island_max_span = -1;
+  EXPECT_NE(c.validate().find("island_max_span"), std::string::npos);
+  c = GroundSegmentationConfig();
   c.seed_radius = std::numeric_limits<double>::infinity();
   EXPECT_NE(c.validate().find("seed_radius"), std::string::npos);
 }

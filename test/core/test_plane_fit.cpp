@@ -37,6 +37,9 @@ TEST(PlaneFitConfig, Validate) {
   c = PlaneFitConfig();
   c.min_xy_stddev = 0.0;
   EXPECT_NE(c.validate().find("min_xy_stddev"), std::string::npos);
+  c = PlaneFitConfig();
+  c.vertical_margin = 4;
+  EXPECT_NE(c.validate().find("vertical_margin"), std::string::npos);
 }
 
 TEST(PlaneFit, ExactPlane) {

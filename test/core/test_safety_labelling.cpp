@@ -115,6 +115,8 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.level_slope_deg = 12.0; }, "level_slope_deg");
   bad([](auto& b) { b.drop_off_radius = -0.1; }, "drop_off_radius");
   bad([](auto& b) { b.drop_off_min_drop = -1.0; }, "drop_off_min_drop");
+  bad([](auto& b) { b.max_gap_cells = 11; }, "max_gap_cells");
+  bad([](auto& b) { b.max_gap_cells = -1; }, "max_gap_cells");
   c.max_step_height = -1.0;
   EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
 }
@@ -580,6 +582,24 @@ TEST(SafetyLabelling, MeasuredStepTestStillStopsAtAStep) {
   w.planeAt(15, 10) = horizontal(0.04);
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(15, 10), L::kLevel);
+}
+
+TEST(SafetyLabelling, MeasuredStepTestIsNotFooledByACurbsFace) {
+  // A 15 cm curb down to a street (indexed height -1 here). The sidewalk's last column holds the
+  // top of the curb's face (mean 2 cm down), the street's first one its lower part (6 cm down):
+  // those two columns alone differ by 4 cm, the two surfaces around them by 12 cm.
+  std::vector<std::string> rows = block(20, 20, '0');
+  for (std::string& r : rows)
+    for (int u = 10; u < 20; ++u)
+      r[u] = 'a';
+  World w(rows, 2, 10, 0, islandSegmentation());
+  for (int v = 0; v < 20; ++v)
+    for (int u = 0; u < 20; ++u)
+      w.hm.setSurfaceHeight(u, v, u < 9 ? 0.0f : u == 9 ? -0.02f : u == 10 ? -0.06f : -0.15f);
+  w.planeAt(15, 10) = horizontal(-0.15);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(3, 10), L::kLevel);
+  EXPECT_EQ(w.at(15, 10), L::kNonGround);
 }
 
 }  // namespace

@@ -34,11 +34,12 @@ struct SafetyLabellingConfig {
   /// one indexed height, so where a level floor runs into a ramp the floor's segment also holds
   /// the ramp's first few decimetres, which its level plane does not model: at the border the
   /// planes then differ by up to a voxel although the surface is continuous, and ramps become
-  /// unreachable. With this on, a border cell is also crossable when the measured surface
-  /// heights (HeightMap::surfaceHeightAtIndex: mean height of the column's top-voxel points) of
-  /// the cell and of a neighbouring cell of the other segment differ by less than h_T, which is
-  /// the ground truth's own test of a drivable transition. A step of h_T or more still fails
-  /// both tests.
+  /// unreachable. With this on, a border cell is also crossable when the local surface heights
+  /// of the two segments there differ by less than h_T, the ground truth's own test of a
+  /// drivable transition. The local surface height of a segment at a cell is the mean measured
+  /// height (HeightMap::surfaceHeightAtIndex, the mean height of the column's top-voxel points)
+  /// of the segment's cells within 2 cells: one column alone is too noisy, and along a curb
+  /// the columns of the curb's face, halfway down, would let a few border cells through.
   bool measured_step_test = true;
 
   /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
@@ -84,9 +85,14 @@ class SafetyLabelling {
     int ok;
   };
   int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
+  // Mean measured surface height of the cells of c's segment within kLocalSurfaceRadius cells
+  // of c (NaN when none has points); computed once per cell and label() call.
+  float localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c);
+  static constexpr int kLocalSurfaceRadius = 2;
 
   SafetyLabellingConfig config_;
   std::vector<std::uint8_t> boundary_;  // per cell
+  std::vector<float> local_z_;          // per cell, see localSurfaceHeight()
   std::vector<Contact> contacts_;
   std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
   std::vector<int> edge_begin_;
