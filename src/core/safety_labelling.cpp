@@ -332,6 +332,40 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     }
   }
 
+  if (config_.drop_off_margin) {
+    // SafetyLabellingConfig::drop_off_margin: border cells of safe segments beside an observed
+    // surface lower by more than the drop (local surface heights) are Non-ground. Heights are
+    // read, labels written, so the margin does not spread.
+    if (!measured) local_z_.assign(n, kLocalZPending);
+    const double drop = std::max(config_.max_step_height, config_.drop_off_min_drop);
+    margin_.clear();
+    for (int k = 0; k < nseg; ++k) {
+      if (!isSafe(m.segments[k].label)) continue;
+      for (const int c : m.segments[k].cells) {
+        if (!boundary_[c]) continue;
+        const float zc = localSurfaceHeight(hm, segs, c);
+        if (std::isnan(zc)) continue;
+        const int u = c % width, v = c / width;
+        for (int j = 0; j < 8; ++j) {
+          const int un = u + kDu[j], vn = v + kDv[j];
+          if (un < 0 || vn < 0 || un >= width || vn >= m.height) continue;
+          const int cn = vn * width + un;
+          if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
+          const float zn = segs.segment_of[cn] >= 0 ? localSurfaceHeight(hm, segs, cn)
+                                                    : hm.surfaceHeightAtIndex(cn);
+          if (zn < zc - drop) {  // NaN: false
+            margin_.push_back(c);
+            break;
+          }
+        }
+      }
+    }
+    for (const int c : margin_) {
+      m.labels[c] = SafetyLabel::kNonGround;
+      m.drop_off[c] = 0;
+    }
+  }
+
   if (!config_.mark_drop_offs) return true;
   // Potential drop-off edges (000, Sec. VI), see SafetyLabellingConfig.
   const double rr = config_.drop_off_radius / l;
@@ -341,7 +375,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     const SegmentInfo& info = m.segments[k];
     if (!isSafe(info.label)) continue;
     for (const int c : info.cells) {
-      if (!boundary_[c]) continue;
+      if (!boundary_[c] || !isSafe(m.labels[c])) continue;  // margin cells are Non-ground
       const int u = c % width, v = c / width;
       bool next_to_unknown = false;
       for (int j = 0; j < 8 && !next_to_unknown; ++j) {

@@ -490,6 +490,15 @@ void dumpSegments(const ssm::Dataset& ds, const ssm::SafetyMap& map, int frame) 
       sx += u * map.resolution;
       sy += v * map.resolution;
     }
+    if (ssm::isSafe(s.label) && gt[4] > 0) {
+      std::printf("  segment %d: safe cells the GT calls Non-ground (x, y):", s.id);
+      for (int c : s.cells) {
+        const int u = map.min_u + c % map.width, v = map.min_v + c / map.width;
+        if (ds.gt.at(u, v) == SafetyLabel::kNonGround)
+          std::printf(" (%.1f, %.1f)", u * map.resolution, v * map.resolution);
+      }
+      std::printf("\n");
+    }
     const double n = std::max<std::size_t>(1, s.cells.size());
     std::printf(
         "  %2d %-10s %5zu %3d %3d %3d %6s %5s %9.2f %7.2f %6zu %7.2f %6.2f      %5d %4d %9d %7d\n",

@@ -49,6 +49,15 @@ struct SafetyLabellingConfig {
   /// shadow behind a drop: seen from a camera H = 1.1 m high at distance d, a drop of h hides
   /// d h / H of the lower level (0.36 m for h = 0.2 m at d = 2 m, 0.55 m at 3 m).
   bool mark_drop_offs = true;
+  /// A one-cell safety margin along observed drop-offs (ours; false = 000). Stereo's depth
+  /// noise carries points of a drop-off's upper edge a few centimetres beyond it, so the upper
+  /// surface's last column often lies already over the lower level (000 Sec. VII-A: obstacles
+  /// "bleed"; at a drop-off the safe side bleeds). With this on, a border cell of a Level /
+  /// Inclined segment whose 8-neighbour holds an observed surface lower than its own (local
+  /// surface heights, see measured_step_test) by more than max(h_T, drop_off_min_drop) is
+  /// Non-ground. Drop-offs whose lower side is hidden (next to Unknown) keep 000's potential
+  /// drop-off edge annotation.
+  bool drop_off_margin = true;
   double drop_off_radius = 0.5;
   double drop_off_min_drop = 0.05;  ///< defaults to h_T: a smaller drop is crossable
 
@@ -93,6 +102,7 @@ class SafetyLabelling {
   SafetyLabellingConfig config_;
   std::vector<std::uint8_t> boundary_;  // per cell
   std::vector<float> local_z_;          // per cell, see localSurfaceHeight()
+  std::vector<int> margin_;             // cells of the drop-off margin
   std::vector<Contact> contacts_;
   std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
   std::vector<int> edge_begin_;
