@@ -666,6 +666,19 @@ TEST(ObstacleDetection, MissingAndNonFinitePointsAreSkipped) {
   EXPECT_EQ(none.mask.size(), all_nan.size());
 }
 
+TEST(ObstacleDetection, FocalLengthIsEstimatedFromTheOrganisedImage) {
+  const Camera cam = makeCamera(320, 240, 275.0f);
+  Rendered img = render({floorShape(), pole(2.5f, 0.3f, 0.05f, 1.0f)}, cam);
+  EXPECT_NEAR(ssm::estimateFocalLength(img.xyz), 275.0, 0.5);
+  // Holes do not matter; too little data gives 0.
+  for (int v = 0; v < 240; v += 3)
+    img.xyz.row(v).setTo(cv::Scalar(kNaN, kNaN, kNaN));
+  EXPECT_NEAR(ssm::estimateFocalLength(img.xyz), 275.0, 0.5);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat(240, 320, CV_32FC3, cv::Scalar(kNaN, 0, 0))), 0.0);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat()), 0.0);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat(10, 10, CV_32FC1)), 0.0);
+}
+
 TEST(ObstacleDetection, BadInputIsRejectedWithoutCrashing) {
   ObstacleDetector det;
   ObstacleDetectionResult res;
