@@ -51,8 +51,10 @@ bool ObstacleCueFusion::addCue(double stamp, const std::vector<Eigen::Vector3f>&
   return true;
 }
 
-ObstacleCueStats ObstacleCueFusion::apply(double stamp, float max_z, SafetyMap* map) {
+ObstacleCueStats ObstacleCueFusion::apply(double stamp, float max_z, SafetyMap* map,
+                                          std::vector<std::uint8_t>* marked) {
   ObstacleCueStats stats;
+  if (marked != nullptr) marked->clear();
   if (map == nullptr || !std::isfinite(stamp)) return stats;
   // Forget the cues outside the window around the map's stamp.
   for (std::size_t k = 0; k < count_;) {
@@ -69,6 +71,7 @@ ObstacleCueStats ObstacleCueFusion::apply(double stamp, float max_z, SafetyMap* 
     return stats;
   }
   counts_.assign(cells, 0u);
+  if (marked != nullptr) marked->assign(cells, 0);
   // Cell (u, v) is centred at (u l_v, v l_v) (000 Eq. (1)): u = floor(x / l_v + 1/2).
   const double inv = 1.0 / map->resolution;
   for (std::size_t k = 0; k < count_; ++k) {
@@ -88,6 +91,7 @@ ObstacleCueStats ObstacleCueFusion::apply(double stamp, float max_z, SafetyMap* 
   for (std::size_t i = 0; i < cells; ++i) {
     if (counts_[i] < need) continue;
     ++stats.cells_marked;
+    if (marked != nullptr) (*marked)[i] = 1;
     if (has_drop_off) map->drop_off[i] = 0;  // drop-off edges annotate safe cells only
     SafetyLabel& l = map->labels[i];
     if (l == SafetyLabel::kNonGround) continue;

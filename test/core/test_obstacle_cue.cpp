@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -85,7 +86,12 @@ TEST(ObstacleCue, MarksCellsWithEnoughPointsNonGroundAndNothingElse) {
 
   const SafetyMap before = makeMap();
   SafetyMap map = before;
-  const ObstacleCueStats s = fusion.apply(10.0, 1.5f, &map);
+  std::vector<std::uint8_t> marked;
+  const ObstacleCueStats s = fusion.apply(10.0, 1.5f, &map, &marked);
+  ASSERT_EQ(marked.size(), 100u);
+  EXPECT_EQ(std::count(marked.begin(), marked.end(), 1), 6);
+  EXPECT_EQ(marked[map.index(7, 4)], 1);  // already Non-ground, still marked
+  EXPECT_EQ(marked[map.index(8, 0)], 0);
   EXPECT_EQ(s.live_cues, 1);
   EXPECT_EQ(s.cells_marked, 6u);
   EXPECT_EQ(s.cells_changed, 5u);

@@ -76,7 +76,9 @@ class ObstacleCueFusion {
   /// cues whose stamp is within `lifetime` of `stamp`, counting only points at or below `max_z`
   /// (fixed frame). Cues outside that window are forgotten (older ones have expired; newer ones
   /// mean time went backwards, e.g. a bag restarted). Only ever changes labels to Non-ground.
-  ObstacleCueStats apply(double stamp, float max_z, SafetyMap* map);
+  /// `marked` (optional) receives one entry per map cell, 1 where the cue marked it.
+  ObstacleCueStats apply(double stamp, float max_z, SafetyMap* map,
+                         std::vector<std::uint8_t>* marked = nullptr);
 
   /// Forgets every cue.
   void clear();
