@@ -218,6 +218,12 @@ TEST_F(ObstacleSceneTest, InvalidParameterIsAnError) {
                            "slope_threshold_deg");
       },
       15.0));
+  EXPECT_TRUE(waitFor(
+      [&] {
+        return diag_->seen("/bad_type/obstacle_detection", DiagnosticStatus::ERROR,
+                           "max_candidates_per_pixel: must be an integer");
+      },
+      15.0));
   // It advertises nothing.
   ros::master::V_TopicInfo topics;
   ros::master::getTopics(topics);
