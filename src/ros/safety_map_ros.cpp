@@ -758,7 +758,11 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
 
 void SafetyMapRos::setUpObstacleCue() {
   if (!cue_config_.enabled) return;
-  obstacle_cue_ = std::make_unique<ObstacleCueFusion>(cue_config_.cue);  // validated
+  {
+    // The worker is running already: it reads obstacle_cue_ under cue_mutex_ as well.
+    std::lock_guard<std::mutex> lock(cue_mutex_);
+    obstacle_cue_ = std::make_unique<ObstacleCueFusion>(cue_config_.cue);  // validated
+  }
   obstacle_cue_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>("obstacles", ros_config_.queue_size,
                                                               &SafetyMapRos::obstacleCueCb, this);
 }
@@ -815,20 +819,20 @@ void SafetyMapRos::obstacleCueProblem(const std::string& detail) {
 }
 
 void SafetyMapRos::applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position) {
-  if (!obstacle_cue_) return;
   // Points above the robot's top are overhangs it passes under (000 Sec. V-A).
   const float max_z =
       robot_position.z() + static_cast<float>(mapper_config_.height_map.robot_height);
   std::lock_guard<std::mutex> lock(cue_mutex_);
+  if (!obstacle_cue_) return;
   cue_stats_ = obstacle_cue_->apply(stamp.toSec(), max_z, &mapper_->mutableSafetyMap());
 }
 
 void SafetyMapRos::diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(cue_mutex_);
   if (!obstacle_cue_) {
     stat.add("obstacle cue", "off");
     return;
   }
-  std::lock_guard<std::mutex> lock(cue_mutex_);
   stat.add("obstacle cue", "on");
   stat.add("obstacle cues received", cues_received_);
   stat.add("obstacle cues refused", cues_refused_);
