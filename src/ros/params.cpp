@@ -216,6 +216,8 @@ std::vector<std::string> safetyMapParameterNames() {
       // SafetyMapRosConfig
       "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
       "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix",
+      // Obstacle cue (obstacle_params.h)
+      "obstacle_cue", "obstacle_cue_lifetime", "obstacle_cue_min_points",
       // diagnostic_updater's own
       "diagnostic_period"};
 }

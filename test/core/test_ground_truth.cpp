@@ -370,6 +370,11 @@ TEST(BenchmarkScenes, LoadAndHaveSaneGroundTruth) {
     return k == std::string::npos ? std::string() : p.substr(0, k);
   };
   std::string root = parent(parent(parent(__FILE__)));
+#ifdef SSM_SOURCE_DIR
+  // CMake's absolute source path: with ccache's CCACHE_BASEDIR (scripts/lib/common.sh) __FILE__
+  // is relative to the build folder, not to where the test runs.
+  root = SSM_SOURCE_DIR;
+#endif
   if (root.empty()) root = ".";
   const std::string dir = root + "/scenes";
   DIR* d = opendir(dir.c_str());
