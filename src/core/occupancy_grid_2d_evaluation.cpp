@@ -108,14 +108,63 @@ std::string countUnsafeCauses(const SafetyMap& map, const LabelGrid& truth,
       if (truth.labels[k] != SafetyLabel::kNonGround) continue;
       const int cause = static_cast<int>(causes[k]);
       if (cause < 0 || cause >= kNumUnsafeCauses) continue;
-      const SafetyClass mc =
-          safetyClassOf(map.labels[static_cast<std::size_t>(r) * map.width + col]);
+      const SafetyLabel ml = map.labels[static_cast<std::size_t>(r) * map.width + col];
+      if (ml == SafetyLabel::kUnexamined) continue;  // outside the evaluated radius
+      const SafetyClass mc = safetyClassOf(ml);
       if (mc == SafetyClass::kUnsafe) {
         ++c.occupied[cause];
       } else if (mc == SafetyClass::kSafe) {
         ++c.free[cause];
       } else {
         ++c.unclassified[cause];
+      }
+    }
+  }
+  *counts += c;
+  return "";
+}
+
+DropOffEdgeCounts& DropOffEdgeCounts::operator+=(const DropOffEdgeCounts& o) {
+  marked += o.marked;
+  safe_unmarked += o.safe_unmarked;
+  unsafe += o.unsafe;
+  unclassified += o.unclassified;
+  return *this;
+}
+
+std::string countDropOffEdges(const SafetyMap& map, const LabelGrid& truth,
+                              const std::vector<std::uint8_t>& edge, DropOffEdgeCounts* counts) {
+  if (counts == nullptr) return "counts must not be null";
+  std::string err = truth.validate();
+  if (!err.empty()) return err;
+  if (edge.size() != truth.labels.size()) return "edge mask does not match the ground truth";
+  const std::size_t n = static_cast<std::size_t>(map.width) * static_cast<std::size_t>(map.height);
+  if (map.width < 0 || map.height < 0 || map.labels.size() != n) {
+    return "safety map labels do not match its size";
+  }
+  if (std::abs(map.resolution - truth.resolution) > 1e-6 * truth.resolution) {
+    return "resolutions differ";
+  }
+  const bool has_marks = map.drop_off.size() == n;
+  DropOffEdgeCounts c;
+  for (int r = 0; r < map.height; ++r) {
+    const int v = map.min_v + r;
+    for (int col = 0; col < map.width; ++col) {
+      const int u = map.min_u + col;
+      if (!truth.inside(u, v) || !edge[truth.index(u, v)]) continue;
+      const std::size_t k = static_cast<std::size_t>(r) * map.width + col;
+      const SafetyLabel ml = map.labels[k];
+      if (ml == SafetyLabel::kUnexamined) continue;
+      if (isSafe(ml)) {
+        if (has_marks && map.drop_off[k]) {
+          ++c.marked;
+        } else {
+          ++c.safe_unmarked;
+        }
+      } else if (ml == SafetyLabel::kNonGround) {
+        ++c.unsafe;
+      } else {
+        ++c.unclassified;
       }
     }
   }

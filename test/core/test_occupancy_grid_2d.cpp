@@ -120,6 +120,19 @@ TEST(OccupancyGrid2DConfig, InvalidValuesNameTheParameter) {
               c.occupied_threshold = 40;
             }).find("occupied_threshold"),
             std::string::npos);
+  // Never-seen cells (128) must stay unknown: neither free nor occupied.
+  EXPECT_NE(
+      message([](OccupancyGrid2DConfig& c) { c.free_threshold = 129; }).find("free_threshold"),
+      std::string::npos);
+  EXPECT_NE(message([](OccupancyGrid2DConfig& c) {
+              c.occupied_threshold = 127;
+            }).find("occupied_threshold"),
+            std::string::npos);
+  EXPECT_EQ(message([](OccupancyGrid2DConfig& c) {
+              c.free_threshold = 128;
+              c.occupied_threshold = 128;
+            }),
+            "");
   EXPECT_NE(message([](OccupancyGrid2DConfig& c) { c.robot_height = 0.05; }).find("robot_height"),
             std::string::npos);
   EXPECT_NE(message([](OccupancyGrid2DConfig& c) {

@@ -107,9 +107,54 @@ TEST(OccupancyGridAsSafetyMap, CountsOnTheSafetyMapsCellIndexing) {
   twice += by;
   EXPECT_EQ(twice.free[lower], 2u);
 
+  // Cells outside the evaluated radius are not counted.
+  SafetyMap near;
+  occupancyGridAsSafetyMap(grid, Eigen::Vector2f(0.0f, 0.0f), 1.5, &near);
+  UnsafeCauseCounts none;
+  ASSERT_EQ(countUnsafeCauses(near, truth, causes, &none), "");
+  for (int k = 0; k < kNumUnsafeCauses; ++k)
+    EXPECT_EQ(none.occupied[k] + none.free[k] + none.unclassified[k], 0u);
+
   causes.pop_back();
   EXPECT_NE(countUnsafeCauses(map, truth, causes, &by), "");
   EXPECT_NE(countUnsafeCauses(map, truth, causes, nullptr), "");
+}
+
+TEST(DropOffEdges, MarkedFreeOccupiedOrUnknown) {
+  LabelGrid truth = makeTruth(0, 0, 10, 1, SafetyLabel::kLevel);
+  std::vector<std::uint8_t> edge(10, 0);
+  for (int u = 2; u <= 6; ++u)
+    edge[truth.index(u, 0)] = 1;
+  SafetyMap map;
+  map.min_u = 0;
+  map.min_v = 0;
+  map.width = 10;
+  map.height = 1;
+  map.resolution = 0.1;
+  map.labels = {SafetyLabel::kLevel,      SafetyLabel::kLevel,     SafetyLabel::kLevel,
+                SafetyLabel::kInclined,   SafetyLabel::kNonGround, SafetyLabel::kUnknown,
+                SafetyLabel::kUnexamined, SafetyLabel::kLevel,     SafetyLabel::kLevel,
+                SafetyLabel::kLevel};
+  map.drop_off.assign(10, 0);
+  map.drop_off[3] = 1;
+  map.drop_off[0] = 1;  // not a GT edge: not counted
+  DropOffEdgeCounts c;
+  ASSERT_EQ(countDropOffEdges(map, truth, edge, &c), "");
+  EXPECT_EQ(c.safe_unmarked, 1u);  // u = 2
+  EXPECT_EQ(c.marked, 1u);         // u = 3
+  EXPECT_EQ(c.unsafe, 1u);         // u = 4
+  EXPECT_EQ(c.unclassified, 1u);   // u = 5; u = 6 Unexamined
+  EXPECT_EQ(c.total(), 4u);
+  // A map without marks (the 2D grid) can only call an edge free.
+  map.drop_off.clear();
+  DropOffEdgeCounts d;
+  ASSERT_EQ(countDropOffEdges(map, truth, edge, &d), "");
+  EXPECT_EQ(d.marked, 0u);
+  EXPECT_EQ(d.safe_unmarked, 2u);
+  d += c;
+  EXPECT_EQ(d.total(), 8u);
+  edge.pop_back();
+  EXPECT_NE(countDropOffEdges(map, truth, edge, &d), "");
 }
 
 BoardBox boardAt(const Eigen::Vector3d& base, double yaw_deg) {

@@ -58,10 +58,28 @@ struct UnsafeCauseCounts {
 };
 
 /// Adds the outcomes of `map` (as from countConfusion(map, truth, ...)) to `counts` by the
-/// cause of each GT cell. `causes` is indexed like truth.labels (one per GT cell). Returns an
-/// error (and counts nothing) when the sizes do not match.
+/// cause of each GT cell. `causes` is indexed like truth.labels (one per GT cell). Map cells that
+/// are Unexamined (outside the evaluated radius) are not counted. Returns an error (and counts
+/// nothing) when the sizes do not match.
 std::string countUnsafeCauses(const SafetyMap& map, const LabelGrid& truth,
                               const std::vector<UnsafeCause>& causes, UnsafeCauseCounts* counts);
+
+/// How a map treats the GT's drop-off edges: safe cells next to ground lower by at least h_T
+/// (000 Sec. VI "potential drop-off edges"). A 2D obstacle grid has no way to mark them: it can
+/// only call them free, occupied or unknown; the safety map marks them (SafetyMap::drop_off).
+struct DropOffEdgeCounts {
+  std::uint64_t marked = 0;         ///< safe in the map and marked as a potential drop-off edge
+  std::uint64_t safe_unmarked = 0;  ///< safe (free) in the map without a mark: the dangerous case
+  std::uint64_t unsafe = 0;         ///< Non-ground (occupied) in the map
+  std::uint64_t unclassified = 0;   ///< Unknown in the map
+  std::uint64_t total() const { return marked + safe_unmarked + unsafe + unclassified; }
+  DropOffEdgeCounts& operator+=(const DropOffEdgeCounts& o);
+};
+
+/// Adds how `map` labels the GT cells with edge[k] != 0 (indexed like truth.labels). Unexamined
+/// map cells and GT cells outside the map are not counted. Empty on success.
+std::string countDropOffEdges(const SafetyMap& map, const LabelGrid& truth,
+                              const std::vector<std::uint8_t>& edge, DropOffEdgeCounts* counts);
 
 /// 002's counterpart of boardWidthCoverage() (000 Sec. VII-B latency): how much of the board's
 /// width is occupied in the 2D grid. The width is sampled every grid cell (bin centres); a sample
