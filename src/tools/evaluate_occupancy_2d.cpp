@@ -810,9 +810,10 @@ std::string writeReport(const Options& opt, const Setup& s, const std::vector<Da
      << "GT Non-ground cell-frames of the benchmark datasets by cause (recomputed from each "
         "dataset's scene file with the dataset's ground-truth code): *occupied* / *unsafe* = "
         "seen, *free* / *safe* = the map invites the robot in, *unclassified* = unknown to the "
-        "map. Lower ground is the low side of a drop-off or curb (below the 2D grid's band, so it "
-        "has no reading there and is cleared by readings beyond it); too steep ramps and raised "
-        "ground below the band's floor clearance are the same for it.\n\n"
+        "map. Lower ground is the low side of a drop-off or curb: below the 2D grid's height band, "
+        "so it gives no reading and is cleared by the readings of whatever stands beyond it. A "
+        "ramp too steep is seen only where it rises into the band (above floor_clearance), a "
+        "steep ramp down never; raised ground only when its step exceeds floor_clearance.\n\n"
      << "| cause | GT cell-frames | 2D grid occupied | 2D grid free | 2D grid unclassified | "
         "safety map unsafe | safety map safe | safety map unclassified |\n"
      << "|---|---|---|---|---|---|---|---|\n";
