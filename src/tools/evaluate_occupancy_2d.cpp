@@ -261,31 +261,9 @@ struct GtExtras {
 
 std::string computeCauses(const ssm::Dataset& d, const std::string& scenes_dir, GtExtras* x) {
   std::vector<ssm::UnsafeCause>* causes = &x->causes;
-  const std::string meta = d.gt_dir + "/dataset.yaml";
-  if (!ssm::fileExists(meta)) return "no dataset.yaml";
-  std::string scene_file, variant;
-  try {
-    const YAML::Node y = YAML::LoadFile(meta);
-    scene_file = y["scene_file"] ? y["scene_file"].as<std::string>() : "";
-    variant = y["variant"] ? y["variant"].as<std::string>() : "";
-  } catch (const std::exception& e) {
-    return std::string("bad dataset.yaml: ") + e.what();
-  }
-  if (scene_file.empty()) return "dataset.yaml names no scene_file";
-  if (!ssm::fileExists(scene_file)) {
-    // Relative to where make_dataset ran: try the --scenes folder.
-    const std::string base = scene_file.substr(scene_file.find_last_of('/') + 1);
-    const std::string alt = scenes_dir + "/" + base;
-    if (!ssm::fileExists(alt)) return "scene file " + scene_file + " not found";
-    scene_file = alt;
-  }
-  ds::SceneFile sf;
-  std::string e = ds::loadSceneFromFile(scene_file, variant, &sf);
-  if (!e.empty()) return "scene " + scene_file + ": " + e;
   ds::GroundTruthConfig gtc;  // make_dataset's
   ds::GroundTruthMap gt;
-  e = ds::computeGroundTruth(sf.scene, gtc,
-                             Eigen::Vector2d(sf.trajectory.start_x, sf.trajectory.start_y), &gt);
+  std::string e = ds::recomputeDatasetGroundTruth(d.gt_dir, scenes_dir, gtc, &gt);
   if (!e.empty()) return "ground truth: " + e;
   const ssm::LabelGrid& lg = d.gt;
   if (gt.min_u != lg.min_u || gt.min_v != lg.min_v || gt.width != lg.width ||
