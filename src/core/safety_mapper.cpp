@@ -56,6 +56,13 @@ std::string SafetyMapperConfig::validate() const {
       stationary_rotation_deg > 180.0) {
     return "stationary_rotation_deg must be in [0, 180] deg";
   }
+  const double max_look_ahead =
+      0.5 * std::min(grid.size_x, grid.size_y) - segmentation.planning_radius;
+  if (!std::isfinite(grid_look_ahead) || grid_look_ahead < 0.0 ||
+      grid_look_ahead > max_look_ahead + 1e-9) {
+    return "grid_look_ahead must be in [0, min(size_x, size_y) / 2 - planning_radius] = [0, " +
+           std::to_string(std::max(0.0, max_look_ahead)) + "] m";
+  }
   return "";
 }
 
@@ -124,7 +131,16 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
   // rays are traced in. A camera outside it means a pose far from the robot (bad extrinsics or
   // localisation), which would paint free space across the map.
   if (!grid_placed_ || config_.scroll_with_robot) {
-    r.voxels_scrolled = grid_.recenter(robot_base_position);
+    // SafetyMapperConfig::grid_look_ahead: along the optical axis projected on the ground.
+    Eigen::Vector3f centre = robot_base_position;
+    const Eigen::Vector3f axis = T_fixed_sensor.linear().col(2);
+    const float horizontal = std::hypot(axis.x(), axis.y());
+    if (config_.grid_look_ahead > 0.0 && horizontal > 1e-3f) {
+      const float a = static_cast<float>(config_.grid_look_ahead) / horizontal;
+      centre.x() += a * axis.x();
+      centre.y() += a * axis.y();
+    }
+    r.voxels_scrolled = grid_.recenter(centre);
     grid_placed_ = true;
   }
   if (!grid_.contains(grid_.indexOf(T_fixed_sensor.translation()))) {

@@ -150,6 +150,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* c) {
   Reader r(pnh);
   r.read("skip_stationary_frames", &c->skip_stationary_frames);
   r.read("stationary_translation", &c->stationary_translation);
+  r.read("grid_look_ahead", &c->grid_look_ahead);
   r.read("stationary_rotation_deg", &c->stationary_rotation_deg);
   r.read("scroll_with_robot", &c->scroll_with_robot);
   return r.result(c->validate());
@@ -212,7 +213,7 @@ std::vector<std::string> safetyMapParameterNames() {
       "drop_off_min_drop",
       // SafetyMapperConfig
       "skip_stationary_frames", "stationary_translation", "stationary_rotation_deg",
-      "scroll_with_robot",
+      "grid_look_ahead", "scroll_with_robot",
       // SafetyMapRosConfig
       "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
       "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix",

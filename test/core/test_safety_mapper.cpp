@@ -224,7 +224,8 @@ const SegmentInfo* robotSegment(const SafetyMap& m) {
 TEST(SafetyMapperConfig, DefaultsAndValidate) {
   SafetyMapperConfig c;
   EXPECT_EQ(c.validate(), "");
-  EXPECT_DOUBLE_EQ(c.stationary_translation, 0.02);
+  EXPECT_DOUBLE_EQ(c.stationary_translation, 0.01);
+  EXPECT_DOUBLE_EQ(c.grid_look_ahead, 1.0);
   EXPECT_DOUBLE_EQ(c.stationary_rotation_deg, 1.0);
   EXPECT_TRUE(c.skip_stationary_frames);
   EXPECT_TRUE(c.scroll_with_robot);
@@ -481,11 +482,11 @@ TEST(SafetyMapper, StationaryFramesAreSkipped) {
                  T.linear();
     return T;
   };
-  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.01, 0.5), f0.robot, &r));
+  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.005, 0.5), f0.robot, &r));
   EXPECT_EQ(r.status, FrameStatus::kStationary);
   // Creeping: compared with the last integrated pose, not the last frame.
-  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.015, 0.0), f0.robot, &r));
-  ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.03, 0.0), f0.robot, &r));
+  EXPECT_FALSE(m.integrateFrame(f0.points, moved(0.008, 0.0), f0.robot, &r));
+  ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.015, 0.0), f0.robot, &r));
   EXPECT_EQ(m.grid().frameCount(), 2u);
   ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.03, 1.5), f0.robot, &r));  // rotation alone
   EXPECT_EQ(m.framesIntegrated(), 3u);
@@ -581,14 +582,29 @@ TEST(SafetyMapper, GridScrollsWithTheRobot) {
   Rig rig;
   rig.step = 0.1;  // 2.3 m in 24 frames
   const auto frames = drive(w, rig, 2.0);
-  const auto scrolling = run(frames);
+  SafetyMapperConfig centred;
+  centred.grid_look_ahead = 0.0;
+  const auto scrolling = run(frames, centred);
   const SafetyMap& m = scrolling->safetyMap();
   EXPECT_EQ(m.robot_u, 20);
   EXPECT_EQ(m.min_u, 20 - 50);
   EXPECT_EQ(scrolling->grid().minIndex().u, 20 - 50);
   EXPECT_EQ(labelAt(m, 5.0, 0.0), L::kLevel) << ascii(m, 1.5, 6.1);
 
-  SafetyMapperConfig fixed;
+  // Centred 1 m ahead of the robot along the camera's heading (+x): the window reaches 6 m
+  // ahead of the robot and R_max = 4 m behind it, and the map within R_max is the same.
+  const auto ahead = run(frames);
+  const SafetyMap& a = ahead->safetyMap();
+  EXPECT_EQ(a.robot_u, 20);
+  EXPECT_EQ(a.min_u, 20 + 10 - 50);
+  EXPECT_TRUE(a.inside(cellOf(2.0 + 5.9), 0));
+  EXPECT_EQ(labelAt(a, 5.0, 0.0), L::kLevel) << ascii(a, 1.5, 6.1);
+  EXPECT_EQ(labelAt(a, 1.5, 0.0), labelAt(m, 1.5, 0.0));
+  SafetyMapperConfig too_far;
+  too_far.grid_look_ahead = 1.5;  // 5 m - 1.5 m < R_max
+  EXPECT_NE(too_far.validate().find("grid_look_ahead"), std::string::npos);
+
+  SafetyMapperConfig fixed = centred;
   fixed.scroll_with_robot = false;
   const auto still = run(frames, fixed);
   const SafetyMap& n = still->safetyMap();

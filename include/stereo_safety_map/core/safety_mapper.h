@@ -34,12 +34,20 @@ struct SafetyMapperConfig {
   /// camera moved less than both thresholds since the last integrated frame (values not in the
   /// paper). The first frame is always integrated.
   bool skip_stationary_frames = true;
-  double stationary_translation = 0.02;  ///< [m]
+  /// [m]. 1 cm: a chair moving at 0.15 m/s or more with a 15 Hz camera is never stationary
+  /// (with 2 cm, 0.3 m/s at 15 Hz skipped every third or fourth frame of a drive).
+  double stationary_translation = 0.01;
   double stationary_rotation_deg = 1.0;  ///< [deg]
 
   /// Keep the grid centred on the robot (000 Sec. IV: "we can have the grid move while centered
   /// on the robot"). When false the window is placed by the first frame and stays there.
   bool scroll_with_robot = true;
+  /// The window is centred this far ahead of the robot along the camera's heading [m] (ours;
+  /// 0 = centred on the robot, 000 Sec. IV). The camera looks ahead: with the default 10 m grid
+  /// and look-ahead 1 m the window reaches 6 m ahead, so that what the camera sees at 5-6 m
+  /// gathers evidence before it comes within R_max, and still 4 m = R_max behind and beside.
+  /// Must leave R_max around the robot inside the window: [0, min(size_x, size_y) / 2 - R_max].
+  double grid_look_ahead = 1.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
