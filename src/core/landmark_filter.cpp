@@ -1,6 +1,7 @@
 #include "stereo_safety_map/core/landmark_filter.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -604,6 +605,67 @@ void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (keep_mask[i]) out->push_back(points[i]);
   }
+}
+
+LandmarkStreamConfig LandmarkStreamConfig::forRange(double min_range, double max_range) const {
+  LandmarkStreamConfig c = *this;
+  c.filter.min_depth = std::max(min_range, 1e-3);
+  c.filter.max_depth = max_range;
+  if (!(c.filter.max_landmark_distance >= max_range)) c.filter.max_landmark_distance = max_range;
+  return c;
+}
+
+LandmarkStreamFilter::LandmarkStreamFilter(const LandmarkFilterConfig& config)
+    : config_(checked(config)) {}
+
+void LandmarkStreamFilter::reset() {
+  if (filter_) filter_->clear();
+  stats_ = LandmarkFilterStats();
+}
+
+void LandmarkStreamFilter::permanentLandmarks(std::vector<Eigen::Vector3f>* out) const {
+  if (filter_) {
+    filter_->permanentLandmarks(out);
+  } else {
+    out->clear();
+  }
+}
+
+bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
+                                 const Eigen::Isometry3f& T_fixed_camera, double stamp,
+                                 std::vector<Eigen::Vector3f>* points, std::string* error) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto fail = [error](const std::string& why) {
+    if (error != nullptr) *error = "landmark filter: " + why;
+    return false;
+  };
+  if (!std::isfinite(stamp)) return fail("the frame has no finite stamp");
+  if (!T_fixed_camera.matrix().allFinite()) return fail("the camera pose is not finite");
+  const bool same_camera = filter_ && camera.width == camera_.width &&
+                           camera.height == camera_.height && camera.fx == camera_.fx &&
+                           camera.fy == camera_.fy && camera.cx == camera_.cx &&
+                           camera.cy == camera_.cy && camera.cx_right == camera_.cx_right &&
+                           camera.baseline == camera_.baseline;
+  if (!same_camera) {
+    std::string why = StereoErrorModel::checkCamera(camera);
+    if (why.empty() && (camera.width <= 0 || camera.height <= 0)) {
+      why = "camera width and height must be > 0";
+    }
+    if (!why.empty()) return fail(why);
+    if (filter_) ++camera_changes_;
+    filter_ = std::make_unique<LandmarkFilter>(camera, config_);  // checked: does not throw
+    camera_ = camera;
+  }
+  stats_ = filter_->update(*points, T_fixed_camera, stamp, &keep_);
+  // In place, order kept: the voxel grid sees the confirmed points as they came.
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    if (keep_[i]) (*points)[out++] = (*points)[i];
+  }
+  points->resize(out);
+  last_ms_ =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return true;
 }
 
 }  // namespace stereo_safety_map

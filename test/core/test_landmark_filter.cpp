@@ -452,6 +452,68 @@ TEST(LandmarkFilter, BadInputIsSkippedWithoutCrashing) {
   EXPECT_TRUE(out.empty());
 }
 
+// The stream filter in front of the voxel grid: confirmed points pass in their order, others
+// do not; bad frames leave the points untouched; a new camera restarts the filter.
+TEST(LandmarkStreamFilter, PassesConfirmedPointsOnlyAndRestartsForANewCamera) {
+  const StereoCameraModel cam = testCamera();
+  LandmarkStreamFilter stream;
+  std::vector<Eigen::Vector3f> wall;
+  for (int i = 0; i < 10; ++i)
+    wall.emplace_back(-0.5f + 0.1f * i, 0.1f, 3.0f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 4; ++k) {
+    pts = wall;
+    pts.emplace_back(0.3f, -0.2f, 1.0f + 0.5f * k);  // a one-frame point, elsewhere each frame
+    std::string err;
+    ASSERT_TRUE(stream.apply(cam, Eigen::Isometry3f::Identity(), 0.1 * k, &pts, &err)) << err;
+    if (k < 3) {
+      EXPECT_TRUE(pts.empty()) << "frame " << k;  // min_matches = 3
+    }
+  }
+  ASSERT_EQ(pts.size(), wall.size());
+  for (std::size_t i = 0; i < wall.size(); ++i)
+    EXPECT_EQ(pts[i], wall[i]);  // in order, untouched
+  EXPECT_EQ(stream.stats().permanent, wall.size());
+  std::vector<Eigen::Vector3f> cloud;
+  stream.permanentLandmarks(&cloud);
+  EXPECT_EQ(cloud.size(), wall.size());
+
+  // Bad frames: refused with a reason, points untouched, landmarks kept.
+  pts = wall;
+  std::string err;
+  EXPECT_FALSE(stream.apply(cam, Eigen::Isometry3f::Identity(), std::nan(""), &pts, &err));
+  EXPECT_NE(err.find("stamp"), std::string::npos);
+  EXPECT_EQ(pts.size(), wall.size());
+  StereoCameraModel broken = cam;
+  broken.baseline = 0.0;
+  EXPECT_FALSE(stream.apply(broken, Eigen::Isometry3f::Identity(), 0.5, &pts, &err));
+  EXPECT_NE(err.find("baseline"), std::string::npos);
+  EXPECT_EQ(pts.size(), wall.size());
+  stream.permanentLandmarks(&cloud);
+  EXPECT_EQ(cloud.size(), wall.size());
+
+  // Another camera: the landmarks (kept in its image) start again.
+  StereoCameraModel other = cam;
+  other.fx = other.fy = 400.0;
+  pts = wall;
+  ASSERT_TRUE(stream.apply(other, Eigen::Isometry3f::Identity(), 0.6, &pts, &err)) << err;
+  EXPECT_TRUE(pts.empty());
+  EXPECT_EQ(stream.cameraChanges(), 1u);
+  EXPECT_EQ(stream.stats().permanent, 0u);
+}
+
+TEST(LandmarkStreamConfig, ForRangeUsesTheGridsRange) {
+  LandmarkStreamConfig c;
+  const LandmarkStreamConfig r = c.forRange(0.0, 12.0);
+  EXPECT_GT(r.filter.min_depth, 0.0);
+  EXPECT_DOUBLE_EQ(r.filter.max_depth, 12.0);
+  EXPECT_GE(r.filter.max_landmark_distance, 12.0);
+  EXPECT_EQ(r.validate(), "");
+  c.filter.gate_chi2 = -1.0;
+  EXPECT_NE(c.validate().find("gate_chi2"), std::string::npos);
+  EXPECT_THROW(LandmarkStreamFilter{c.filter}, std::invalid_argument);
+}
+
 TEST(LandmarkFilter, ConfigValidation) {
   EXPECT_TRUE(LandmarkFilterConfig().validate().empty());
   const auto expectBad = [](const LandmarkFilterConfig& c, const char* name) {

@@ -48,6 +48,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -223,5 +224,70 @@ class LandmarkFilter {
 /// `out` is reused; a mask of the wrong size copies nothing.
 void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
                    const std::vector<std::uint8_t>& keep_mask, std::vector<Eigen::Vector3f>* out);
+
+// ---------------------------------------------------------------------------------------------
+// The landmark filter as a filter of the point stream before the voxel grid.
+//
+// 001 Sec. 4.2 builds its 3D model from permanent landmarks only. Used in front of paper 000's
+// voxel grid, a frame's point passes when it lies in the gate of a landmark that is permanent
+// after the frame's update (LandmarkFilter's keep mask): points that no landmark has confirmed
+// over min_matches frames within time_window, i.e. one-frame mismatches, never reach the grid.
+// The first frames (before any landmark is permanent) pass nothing. StereoFrameProcessor (the
+// offline tools) and the safety-map nodelet share this class, so that both filter alike.
+//
+// The filter needs frames taken from different poses (001: "removing noise from dense stereo
+// data using motion"): a mismatch repeats in every frame of a stationary camera and would be
+// confirmed. Callers therefore feed it only the frames the voxel grid integrates (000 Sec. IV
+// skips stationary frames; SafetyMapper::isStationary()).
+
+/// Whether and how the stream is filtered (a parameter of the safety-map pipeline).
+struct LandmarkStreamConfig {
+  bool enabled = false;  ///< off: 000's pipeline as published; on: 001's filter in front of it
+  LandmarkFilterConfig filter;
+
+  /// This configuration with the filter's depth range set to the grid's [min_range, max_range]
+  /// (the points the grid would use; min_depth at least 1 mm) and max_landmark_distance raised to
+  /// max_range when it was smaller.
+  LandmarkStreamConfig forRange(double min_range, double max_range) const;
+  /// Empty when valid (filter.validate(), also while disabled), else why not.
+  std::string validate() const { return filter.validate(); }
+};
+
+class LandmarkStreamFilter {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit LandmarkStreamFilter(const LandmarkFilterConfig& config = LandmarkFilterConfig());
+
+  /// Runs the filter on one frame and removes from `*points` (camera frame, e.g. from
+  /// reprojectDisparity) every point that no permanent landmark confirms; the order of the kept
+  /// points is preserved. `camera` is the frame's camera (a change of geometry restarts the
+  /// filter: landmarks live in image coordinates). Returns false, with *error set and *points
+  /// untouched, when the camera cannot be used or the pose / stamp is not finite.
+  bool apply(const StereoCameraModel& camera, const Eigen::Isometry3f& T_fixed_camera, double stamp,
+             std::vector<Eigen::Vector3f>* points, std::string* error = nullptr);
+
+  /// Forgets every landmark (the next frame starts afresh).
+  void reset();
+
+  /// Stats of the last apply() (empty before the first).
+  const LandmarkFilterStats& stats() const { return stats_; }
+  /// Wall time of the last apply() [ms].
+  double lastMs() const { return last_ms_; }
+  /// The filter (null before the first frame).
+  const LandmarkFilter* filter() const { return filter_.get(); }
+  /// Means of the permanent landmarks (fixed frame), the filter's own output; `out` is reused.
+  void permanentLandmarks(std::vector<Eigen::Vector3f>* out) const;
+  /// Times the filter was restarted for a new camera geometry.
+  std::size_t cameraChanges() const { return camera_changes_; }
+
+ private:
+  LandmarkFilterConfig config_;
+  std::unique_ptr<LandmarkFilter> filter_;
+  StereoCameraModel camera_;
+  std::vector<std::uint8_t> keep_;
+  LandmarkFilterStats stats_;
+  double last_ms_ = 0.0;
+  std::size_t camera_changes_ = 0;
+};
 
 }  // namespace stereo_safety_map
