@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -50,6 +51,13 @@ Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& Rt, const Eigen::Matrix3
 inline int floorToInt(double x) {
   const int i = static_cast<int>(x);
   return i - (x < i ? 1 : 0);
+}
+
+// CPU time of the calling thread [ms] (POSIX).
+double threadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 const LandmarkFilterConfig& checked(const LandmarkFilterConfig& config) {
@@ -396,7 +404,7 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
   // Pass 1: retire landmarks, and list those in view by image row so that pass 2 walks the
   // row-major point buckets nearly in order (far fewer cache misses than slot order).
   visit_row_start_.assign(static_cast<std::size_t>(camera_.height) + 1, 0);
-  visit_slot_.clear();
+  visit_unsorted_.clear();
   visit_row_.clear();
   const std::int32_t num_slots = static_cast<std::int32_t>(landmarks_.size());
   for (std::int32_t slot = 0; slot < num_slots; ++slot) {
@@ -430,17 +438,24 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
       continue;
     }
     const int r = std::min(std::max(static_cast<int>(row), 0), camera_.height - 1);
-    visit_slot_.push_back(slot);
+    // Everything pass 2 needs, computed here while the landmarks are read in memory order; pass
+    // 2 then reads these records in image-row order, sequentially.
+    VisitRecord v;
+    v.pc = pc;
+    v.L = rotateCovariance(Rt, l.covariance);
+    v.slot = slot;
+    v.permanent = l.status == LandmarkStatus::kPermanent ? 1 : 0;
+    visit_unsorted_.push_back(v);
     visit_row_.push_back(r);
     ++visit_row_start_[r + 1];
   }
-  stats_.landmarks_in_view = visit_slot_.size();
+  stats_.landmarks_in_view = visit_unsorted_.size();
   for (int r = 0; r < camera_.height; ++r) {
     visit_row_start_[r + 1] += visit_row_start_[r];
   }
-  visit_order_.resize(visit_slot_.size());
-  for (std::size_t i = 0; i < visit_slot_.size(); ++i) {
-    visit_order_[visit_row_start_[visit_row_[i]]++] = visit_slot_[i];
+  visit_sorted_.resize(visit_unsorted_.size());
+  for (std::size_t i = 0; i < visit_unsorted_.size(); ++i) {
+    visit_sorted_[visit_row_start_[visit_row_[i]]++] = visit_unsorted_[i];
   }
 
   // Pass 2: association, Eq. (9)-(12). Raw pointers, see scanGate().
@@ -448,12 +463,11 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
   std::int32_t* const nearest = nearest_.data();
   std::uint8_t* const near_permanent = near_permanent_.data();
   const double inv_desc_var = inv_desc_var_;
-  for (const std::int32_t slot : visit_order_) {
-    const Landmark& l = landmarks_[slot];
-    const Eigen::Vector3d pc = Rt * (l.mean.cast<double>() - t);
-    const Eigen::Matrix3d L = rotateCovariance(Rt, l.covariance);
-
-    const std::uint8_t permanent = l.status == LandmarkStatus::kPermanent ? 1 : 0;
+  for (const VisitRecord& v : visit_sorted_) {
+    const std::int32_t slot = v.slot;
+    const Eigen::Vector3d& pc = v.pc;
+    const Eigen::Matrix3d& L = v.L;
+    const std::uint8_t permanent = v.permanent;
     double best_cost = std::numeric_limits<double>::infinity();
     double best_det = 1.0;
     std::int32_t best = -1;
@@ -470,7 +484,7 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
         const float* dp = descriptors->data() + static_cast<std::size_t>(sorted_index_[s]) * dim;
         double dd = 0.0;
         for (std::size_t a = 0; a < dim; ++a) {
-          const double diff = static_cast<double>(dp[a]) - l.descriptor[a];
+          const double diff = static_cast<double>(dp[a]) - landmarks_[slot].descriptor[a];
           dd += diff * diff;
         }
         cost += dd * inv_desc_var;
@@ -635,6 +649,7 @@ bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
                                  const Eigen::Isometry3f& T_fixed_camera, double stamp,
                                  std::vector<Eigen::Vector3f>* points, std::string* error) {
   const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = threadCpuMs();
   const auto fail = [error](const std::string& why) {
     if (error != nullptr) *error = "landmark filter: " + why;
     return false;
@@ -665,6 +680,7 @@ bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
   points->resize(out);
   last_ms_ =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  last_cpu_ms_ = threadCpuMs() - c0;
   return true;
 }
 

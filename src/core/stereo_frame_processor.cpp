@@ -141,6 +141,7 @@ bool StereoFrameProcessor::integrate(const cv::Mat& disparity, const StereoCamer
     r->landmark_filter_ran = true;
     r->landmarks = landmarks_.stats();
     r->timings.landmark_ms = landmarks_.lastMs();
+    r->timings.landmark_cpu_ms = landmarks_.lastCpuMs();
   }
   r->points = points_.size();
   const bool ok = mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, &r->mapper);

@@ -7,10 +7,10 @@
 //                   [--every N] [--max-frames N] [--ghost-px 2.0] [--quiet]
 //
 // Every stereo pair goes through the pipeline the nodelets run (StereoFrameProcessor, through the
-// shared dataset reader), and the newest LaserScan before it is ray cast into the LaserGrid that
-// the hybrid nodelet uses, from the scan's pose in the bag's tf. Three maps are built on the
-// cells of each integrated frame's stereo safety map (core/hybrid_safety_map.h): laser-only,
-// stereo-only and merged. Measures:
+// shared dataset reader), and every LaserScan up to the pair is ray cast, from its pose in the
+// bag's tf, into the LaserGrid that the hybrid nodelet uses. Three maps are
+// built on the cells of each integrated frame's stereo safety map (core/hybrid_safety_map.h):
+// laser-only, stereo-only and merged. Measures:
 //  - Table 2 of 001: precision, recall and F1 of the safe class (A = safe in the map and in the
 //    ground truth, B = safe in the map only, C = safe in the ground truth only) for the three
 //    maps, from cell counts summed over all integrated frames of a dataset; each map counted on
@@ -36,6 +36,8 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/Image.h>
+#include <tf2/exceptions.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -347,6 +349,40 @@ cv::Mat hybridPanel(const HybridSafetyMap& h, const Eigen::Vector3d& robot, doub
 }
 
 // ---------------------------------------------------------------------------------------------
+// Every LaserScan of a bag in stamp order with its pose from the bag's tf, as the hybrid nodelet
+// receives them (the dataset reader keeps only the newest scan per stereo pair, and in the
+// package's bags half of the scans are replaced before the next pair is complete).
+
+class ScanReader {
+ public:
+  bool open(const std::string& bag, const std::string& topic) {
+    try {
+      bag_.open(bag, rosbag::bagmode::Read);
+      view_ = std::make_unique<rosbag::View>(bag_, rosbag::TopicQuery(topic));
+    } catch (const std::exception&) {
+      return false;
+    }
+    it_ = view_->begin();
+    return view_->size() > 0;
+  }
+  // The next scan stamped at or before `stamp`; false when there is none (yet).
+  bool next(const ros::Time& stamp, sensor_msgs::LaserScanConstPtr* scan) {
+    while (view_ && it_ != view_->end()) {
+      if (it_->getTime() > stamp) return false;
+      *scan = it_->instantiate<sensor_msgs::LaserScan>();
+      ++it_;
+      if (*scan) return true;
+    }
+    return false;
+  }
+
+ private:
+  rosbag::Bag bag_;
+  std::unique_ptr<rosbag::View> view_;
+  rosbag::View::iterator it_;
+};
+
+// ---------------------------------------------------------------------------------------------
 // Ground-truth depth of a bag rendered with --depth, read alongside the stereo pairs.
 
 class DepthReader {
@@ -455,6 +491,8 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
   ro.max_frames = opt.max_frames;
   e = reader.open(bag, ro);
   if (!e.empty()) return e;
+  ScanReader scans;
+  if (!scans.open(bag, ro.scan_topic)) return d.name + ": no " + ro.scan_topic + " in " + bag;
 
   ssm::StereoFrameProcessor proc(config);
   // The laser grid of the hybrid nodelet: its defaults (config/hybrid_safety_map.yaml), cells of
@@ -466,7 +504,7 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
   ssm::LaserGrid laser(lc);
   ssm::HybridSafetyMapBuilder builder;
   HybridSafetyMap maps[kSources], common[kSources];
-  sensor_msgs::LaserScanConstPtr last_scan;
+  sensor_msgs::LaserScanConstPtr scan;
   ssm::StereoBagFrame f;
   Eigen::Vector3d last_robot = Eigen::Vector3d::Zero();
   double last_yaw = kNaN;
@@ -475,22 +513,27 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
   while (reader.next(&f)) {
     ++r->pairs;
     const Clock::time_point t0 = Clock::now();
-    // The newest scan before this pair, once.
-    if (f.scan && f.scan != last_scan && f.scan_pose_ok) {
-      last_scan = f.scan;
+    // Every scan up to this pair, as the nodelet integrates them.
+    while (scans.next(f.stamp, &scan)) {
       ssm::LaserScanInfo info;
-      if (ssm::laserScanInfoFromMsg(*f.scan, &info).empty()) {
-        const Clock::time_point tl = Clock::now();
-        const Eigen::Isometry3f T = f.T_fixed_scan.cast<float>();
-        laser.recenter(T.translation().x(), T.translation().y());
-        laser.integrate(info, f.scan->ranges, T);
-        r->laser_ms.push_back(msSince(tl));
-        ++r->scans;
-        if (!blind_ready) {
-          r->laser_z = f.T_fixed_scan.translation().z();
-          r->blind = laserBlindCells(d, r->laser_z);
-          blind_ready = true;
-        }
+      if (!ssm::laserScanInfoFromMsg(*scan, &info).empty()) continue;
+      Eigen::Isometry3f T;
+      try {
+        T = tf2::transformToEigen(reader.tf().lookupTransform(ro.fixed_frame, scan->header.frame_id,
+                                                              scan->header.stamp))
+                .cast<float>();
+      } catch (const tf2::TransformException&) {
+        continue;
+      }
+      const Clock::time_point tl = Clock::now();
+      laser.recenter(T.translation().x(), T.translation().y());
+      laser.integrate(info, scan->ranges, T);
+      r->laser_ms.push_back(msSince(tl));
+      ++r->scans;
+      if (!blind_ready) {
+        r->laser_z = T.translation().z();
+        r->blind = laserBlindCells(d, r->laser_z);
+        blind_ready = true;
       }
     }
     if (!f.error.empty() || f.index % opt.every != 0) continue;
@@ -566,12 +609,13 @@ struct LandmarkRun {
   ConfusionCounts map;
   std::uint64_t points_reprojected = 0, points_to_grid = 0;
   std::uint64_t checked_to_grid = 0, ghosts_to_grid = 0;
-  std::vector<double> landmark_ms, frame_ms;
+  std::vector<double> landmark_ms, landmark_cpu_ms, frame_ms;
   std::size_t permanent = 0;
 };
 
 struct LandmarkResult {
   std::string name;
+  std::string disparity;  ///< which disparity post-filters ran
   bool has_depth = false;
   int pairs = 0;
   LandmarkRun off, on;
@@ -629,6 +673,7 @@ std::string runLandmarks(const std::string& bag, const ssm::StereoFrameProcessor
     LandmarkRun& run = r->on;
     if (res_on.landmark_filter_ran) {
       run.landmark_ms.push_back(res_on.timings.landmark_ms);
+      run.landmark_cpu_ms.push_back(res_on.timings.landmark_cpu_ms);
       run.points_reprojected += res_on.points_reprojected;
       run.points_to_grid += res_on.points;
       countGhosts(on.points(), dmap, f.camera, opt.ghost_px, &run.checked_to_grid,
@@ -728,15 +773,25 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<LandmarkResult> landmarks;
+  // Twice per bag: the disparity post-filters as configured (000 Sec. III, 002 Sec. 2.2, 4.2),
+  // and the matcher alone (its uniqueness test only), closer to the raw dense stereo of 001.
+  ssm::StereoFrameProcessorConfig raw = config;
+  raw.disparity.enable_texture = false;
+  raw.disparity.enable_left_right = false;
+  raw.disparity.enable_neighbour_consistency = false;
+  raw.disparity.enable_spike_removal = false;
   for (const std::string& b : opt.noisy_bags) {
-    if (!opt.quiet) std::fprintf(stderr, "landmark filter: %s\n", b.c_str());
-    LandmarkResult r;
-    const std::string e = runLandmarks(b, config, opt, &r);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 1;
+    for (int pass = 0; pass < 2; ++pass) {
+      if (!opt.quiet) std::fprintf(stderr, "landmark filter: %s\n", b.c_str());
+      LandmarkResult r;
+      r.disparity = pass == 0 ? "post-filters as configured" : "matcher only";
+      const std::string e = runLandmarks(b, pass == 0 ? config : raw, opt, &r);
+      if (!e.empty()) {
+        std::fprintf(stderr, "error: %s\n", e.c_str());
+        return 1;
+      }
+      landmarks.push_back(r);
     }
-    landmarks.push_back(r);
   }
   const double wall_s = msSince(start) / 1000.0;
 
@@ -781,7 +836,7 @@ int main(int argc, char** argv) {
   j << "\n  ],\n  \"landmark_filter\": [";
   for (std::size_t k = 0; k < landmarks.size(); ++k) {
     const LandmarkResult& r = landmarks[k];
-    j << (k ? "," : "") << "\n    {\"name\": \"" << r.name
+    j << (k ? "," : "") << "\n    {\"name\": \"" << r.name << "\", \"disparity\": \"" << r.disparity
       << "\", \"has_depth\": " << (r.has_depth ? "true" : "false")
       << ", \"ghost_px\": " << jnum(opt.ghost_px);
     for (int on = 0; on < 2; ++on) {
@@ -798,6 +853,8 @@ int main(int argc, char** argv) {
         << ", \"landmark_ms_median\": " << jnum(statsOf(run.landmark_ms).median)
         << ", \"landmark_ms_mean\": " << jnum(statsOf(run.landmark_ms).mean)
         << ", \"landmark_ms_max\": " << jnum(statsOf(run.landmark_ms).max)
+        << ", \"landmark_cpu_ms_median\": " << jnum(statsOf(run.landmark_cpu_ms).median)
+        << ", \"landmark_cpu_ms_max\": " << jnum(statsOf(run.landmark_cpu_ms).max)
         << ", \"frame_ms_median\": " << jnum(statsOf(run.frame_ms).median) << "}";
     }
     j << "}";
@@ -900,19 +957,23 @@ int main(int argc, char** argv) {
           "the integrated frames; ghost points: points reaching the voxel grid whose disparity is "
           "more than "
        << fmt(opt.ghost_px, 1)
-       << " px from the ground-truth depth's; time: the filter's update per frame.\n\n"
-       << "| dataset | filter | frames | FP rate | FN rate | safe P / R / F1 | points to the grid "
-          "per frame | ghost points to the grid | of which ghosts | filter time median / max "
-          "[ms] |\n|---|---|---|---|---|---|---|---|---|---|\n";
+       << " px from the ground-truth depth's; time: the filter's update per frame, wall and "
+          "thread CPU (the machine may be shared; bench_landmark_filter measures the filter "
+          "alone). Disparity: the post-filters as configured, or the matcher alone (its "
+          "uniqueness test only), closer to the raw dense stereo of 001.\n\n"
+       << "| dataset | disparity | filter | frames | FP rate | FN rate | safe P / R / F1 | points "
+          "to the grid per frame | ghost points to the grid | of which ghosts | filter wall "
+          "median / max [ms] | filter CPU median / max [ms] |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const LandmarkResult& r : landmarks) {
       for (int on = 0; on < 2; ++on) {
         const LandmarkRun& run = on ? r.on : r.off;
         const ssm::ErrorRates er = ssm::errorRates(run.map);
         const ssm::SafeClassScores sc = ssm::safeClassScores(run.map);
         const std::size_t frames = on ? run.landmark_ms.size() : run.frame_ms.size();
-        md << "| " << r.name << " | " << (on ? "on" : "off") << " | " << run.integrated << " | "
-           << pct(er.fp, 2) << " | " << pct(er.fn, 2) << " | " << fmt(sc.precision) << " / "
-           << fmt(sc.recall) << " / " << fmt(sc.f1) << " | "
+        md << "| " << r.name << " | " << r.disparity << " | " << (on ? "on" : "off") << " | "
+           << run.integrated << " | " << pct(er.fp, 2) << " | " << pct(er.fn, 2) << " | "
+           << fmt(sc.precision) << " / " << fmt(sc.recall) << " / " << fmt(sc.f1) << " | "
            << fmt(frames ? static_cast<double>(run.points_to_grid) / frames : kNaN, 0) << " | "
            << (r.has_depth ? std::to_string(run.ghosts_to_grid) : "n/a (no depth)") << " | "
            << (r.has_depth ? pct(ratio(run.ghosts_to_grid, run.checked_to_grid), 2) : "n/a")
@@ -920,12 +981,17 @@ int main(int argc, char** argv) {
            << (on ? fmt(statsOf(run.landmark_ms).median, 1) + " / " +
                         fmt(statsOf(run.landmark_ms).max, 1)
                   : "-")
+           << " | "
+           << (on ? fmt(statsOf(run.landmark_cpu_ms).median, 1) + " / " +
+                        fmt(statsOf(run.landmark_cpu_ms).max, 1)
+                  : "-")
            << " |\n";
       }
     }
     md << "\nPermanent landmarks at the end: ";
     for (std::size_t k = 0; k < landmarks.size(); ++k)
-      md << (k ? ", " : "") << landmarks[k].name << " " << landmarks[k].on.permanent;
+      md << (k ? ", " : "") << landmarks[k].name << " (" << landmarks[k].disparity << ") "
+         << landmarks[k].on.permanent;
     md << ".\n";
   }
   {

@@ -216,7 +216,15 @@ class LandmarkFilter {
   std::vector<std::uint8_t> near_permanent_;  // in the gate of a landmark permanent at scan time
   std::vector<std::uint8_t> covered_;         // in the gate of a landmark started in this frame
   std::vector<std::int32_t> associations_;
-  std::vector<std::int32_t> visit_slot_, visit_row_, visit_row_start_, visit_order_;
+  // A landmark in view as pass 2 of associate() needs it: camera-frame mean and covariance.
+  struct VisitRecord {
+    Eigen::Vector3d pc;
+    Eigen::Matrix3d L;
+    std::int32_t slot;
+    std::uint8_t permanent;
+  };
+  std::vector<VisitRecord> visit_unsorted_, visit_sorted_;  // slot order, image-row order
+  std::vector<std::int32_t> visit_row_, visit_row_start_;
   LandmarkFilterStats stats_;
 };
 
@@ -273,6 +281,9 @@ class LandmarkStreamFilter {
   const LandmarkFilterStats& stats() const { return stats_; }
   /// Wall time of the last apply() [ms].
   double lastMs() const { return last_ms_; }
+  /// CPU time of the calling thread in the last apply() [ms] (less disturbed by a busy machine
+  /// than the wall time).
+  double lastCpuMs() const { return last_cpu_ms_; }
   /// The filter (null before the first frame).
   const LandmarkFilter* filter() const { return filter_.get(); }
   /// Means of the permanent landmarks (fixed frame), the filter's own output; `out` is reused.
@@ -287,6 +298,7 @@ class LandmarkStreamFilter {
   std::vector<std::uint8_t> keep_;
   LandmarkFilterStats stats_;
   double last_ms_ = 0.0;
+  double last_cpu_ms_ = 0.0;
   std::size_t camera_changes_ = 0;
 };
 

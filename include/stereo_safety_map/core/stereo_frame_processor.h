@@ -48,8 +48,9 @@ struct StereoFrameProcessorConfig {
 struct StereoFrameTimings {
   double disparity_ms = 0.0;  ///< matching and post-filters (0 for processDisparity)
   double reproject_ms = 0.0;
-  double landmark_ms = 0.0;  ///< the landmark filter (0 when off or not run)
-  StageTimings mapper;       ///< update, height map, segmentation, fit, labelling
+  double landmark_ms = 0.0;      ///< the landmark filter (0 when off or not run)
+  double landmark_cpu_ms = 0.0;  ///< its thread CPU time
+  StageTimings mapper;           ///< update, height map, segmentation, fit, labelling
   double total_ms = 0.0;
 };
 
