@@ -1,5 +1,7 @@
 #include "stereo_safety_map/core/landmark_filter.h"
 
+#include "stereo_safety_map/core/safety_mapper.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -621,20 +623,47 @@ void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
   }
 }
 
-LandmarkStreamConfig LandmarkStreamConfig::forRange(double min_range, double max_range) const {
+LandmarkStreamConfig LandmarkStreamConfig::forMapper(const SafetyMapperConfig& mapper) const {
   LandmarkStreamConfig c = *this;
+  const double min_range = mapper.grid.min_range, max_range = mapper.grid.max_range;
   c.filter.min_depth = std::max(min_range, 1e-3);
   c.filter.max_depth = max_range;
   if (!(c.filter.max_landmark_distance >= max_range)) c.filter.max_landmark_distance = max_range;
+  c.skip_stationary_frames = mapper.skip_stationary_frames;
+  c.stationary_translation = mapper.stationary_translation;
+  c.stationary_rotation_deg = mapper.stationary_rotation_deg;
   return c;
 }
 
-LandmarkStreamFilter::LandmarkStreamFilter(const LandmarkFilterConfig& config)
-    : config_(checked(config)) {}
+std::string LandmarkStreamConfig::validate() const {
+  const std::string why = filter.validate();
+  if (!why.empty()) return why;
+  if (!std::isfinite(stationary_translation) || stationary_translation < 0.0 ||
+      stationary_translation > 100.0) {
+    return rangeMessage("stationary_translation", stationary_translation, "[0, 100] m");
+  }
+  if (!std::isfinite(stationary_rotation_deg) || stationary_rotation_deg < 0.0 ||
+      stationary_rotation_deg > 180.0) {
+    return rangeMessage("stationary_rotation_deg", stationary_rotation_deg, "[0, 180] deg");
+  }
+  return {};
+}
+
+namespace {
+const LandmarkStreamConfig& checkedStream(const LandmarkStreamConfig& config) {
+  const std::string why = config.validate();
+  if (!why.empty()) throw std::invalid_argument("LandmarkStreamConfig: " + why);
+  return config;
+}
+}  // namespace
+
+LandmarkStreamFilter::LandmarkStreamFilter(const LandmarkStreamConfig& config)
+    : config_(checkedStream(config)) {}
 
 void LandmarkStreamFilter::reset() {
   if (filter_) filter_->clear();
   stats_ = LandmarkFilterStats();
+  has_last_pose_ = false;
 }
 
 void LandmarkStreamFilter::permanentLandmarks(std::vector<Eigen::Vector3f>* out) const {
@@ -645,17 +674,28 @@ void LandmarkStreamFilter::permanentLandmarks(std::vector<Eigen::Vector3f>* out)
   }
 }
 
-bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
-                                 const Eigen::Isometry3f& T_fixed_camera, double stamp,
-                                 std::vector<Eigen::Vector3f>* points, std::string* error) {
+LandmarkStreamStatus LandmarkStreamFilter::apply(const StereoCameraModel& camera,
+                                                 const Eigen::Isometry3f& T_fixed_camera,
+                                                 double stamp, std::vector<Eigen::Vector3f>* points,
+                                                 std::string* error) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = threadCpuMs();
   const auto fail = [error](const std::string& why) {
     if (error != nullptr) *error = "landmark filter: " + why;
-    return false;
+    return LandmarkStreamStatus::kRejected;
   };
   if (!std::isfinite(stamp)) return fail("the frame has no finite stamp");
   if (!T_fixed_camera.matrix().allFinite()) return fail("the camera pose is not finite");
+  // 000 Sec. IV: a camera that has not moved repeats its mismatches; they must not confirm
+  // each other.
+  if (config_.skip_stationary_frames && has_last_pose_) {
+    const Eigen::Isometry3f delta = last_pose_.inverse() * T_fixed_camera;
+    const double dt = delta.translation().norm();
+    const double da = Eigen::AngleAxisf(delta.linear()).angle() * 180.0 / M_PI;
+    if (dt < config_.stationary_translation && da < config_.stationary_rotation_deg) {
+      return LandmarkStreamStatus::kStationary;
+    }
+  }
   const bool same_camera = filter_ && camera.width == camera_.width &&
                            camera.height == camera_.height && camera.fx == camera_.fx &&
                            camera.fy == camera_.fy && camera.cx == camera_.cx &&
@@ -668,9 +708,11 @@ bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
     }
     if (!why.empty()) return fail(why);
     if (filter_) ++camera_changes_;
-    filter_ = std::make_unique<LandmarkFilter>(camera, config_);  // checked: does not throw
+    filter_ = std::make_unique<LandmarkFilter>(camera, config_.filter);  // checked: no throw
     camera_ = camera;
   }
+  last_pose_ = T_fixed_camera;
+  has_last_pose_ = true;
   stats_ = filter_->update(*points, T_fixed_camera, stamp, &keep_);
   // In place, order kept: the voxel grid sees the confirmed points as they came.
   std::size_t out = 0;
@@ -681,7 +723,7 @@ bool LandmarkStreamFilter::apply(const StereoCameraModel& camera,
   last_ms_ =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   last_cpu_ms_ = threadCpuMs() - c0;
-  return true;
+  return LandmarkStreamStatus::kFiltered;
 }
 
 }  // namespace stereo_safety_map

@@ -31,7 +31,7 @@ std::string StereoFrameProcessorConfig::validate() const {
   if (!err.empty()) return "disparity." + err;
   err = mapper.validate();
   if (!err.empty()) return "mapper." + err;
-  err = landmark_filter.forRange(mapper.grid.min_range, mapper.grid.max_range).validate();
+  err = landmark_filter.forMapper(mapper).validate();
   if (!err.empty()) return "landmark_filter." + err;
   if (disparity_step < 1 || disparity_step > 16) {
     std::ostringstream os;
@@ -54,9 +54,7 @@ StereoFrameProcessor::StereoFrameProcessor(const StereoFrameProcessorConfig& con
     : config_(checked(config)),
       pipeline_(config_.disparity),
       mapper_(config_.mapper),
-      landmarks_(config_.landmark_filter
-                     .forRange(config_.mapper.grid.min_range, config_.mapper.grid.max_range)
-                     .filter) {}
+      landmarks_(config_.landmark_filter.forMapper(config_.mapper)) {}
 
 bool StereoFrameProcessor::processImages(const cv::Mat& left, const cv::Mat& right,
                                          const StereoCameraModel& camera,
@@ -134,8 +132,14 @@ bool StereoFrameProcessor::integrate(const cv::Mat& disparity, const StereoCamer
   if (config_.landmark_filter.enabled && !points_.empty() &&
       !mapper_.isStationary(T_fixed_sensor)) {
     std::string err;
-    if (!landmarks_.apply(camera, T_fixed_sensor, stamp, &points_, &err)) {
+    const LandmarkStreamStatus st = landmarks_.apply(camera, T_fixed_sensor, stamp, &points_, &err);
+    if (st == LandmarkStreamStatus::kRejected) {
       setError(error, err);
+      return false;
+    }
+    if (st == LandmarkStreamStatus::kStationary) {  // not moved since the filter's last frame
+      r->mapper.status = FrameStatus::kStationary;
+      setError(error, toString(FrameStatus::kStationary));
       return false;
     }
     r->landmark_filter_ran = true;

@@ -66,8 +66,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (err.empty()) err = fromRosParam(pnh_, &landmark_config_);
   if (err.empty()) {
     // The filter sees the points the grid would use (001 Sec. 4.2 in front of 000 Sec. IV).
-    landmark_config_ =
-        landmark_config_.forRange(mapper_config_.grid.min_range, mapper_config_.grid.max_range);
+    landmark_config_ = landmark_config_.forMapper(mapper_config_);
     const std::string why = landmark_config_.validate();
     if (!why.empty()) err = "invalid parameter in " + pnh_.getNamespace() + ": landmark_" + why;
   }
@@ -94,7 +93,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   points_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("occupied_points", 1);
   timings_pub_ = nh_.advertise<StageTimingsMsg>("stage_timings", 10);
   if (landmark_config_.enabled) {
-    landmarks_ = std::make_unique<LandmarkStreamFilter>(landmark_config_.filter);  // validated
+    landmarks_ = std::make_unique<LandmarkStreamFilter>(landmark_config_);  // validated
     landmarks_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("landmarks", 1);
     if (ros_config_.input == "cloud") {
       ROS_WARN_STREAM(name_ << ": use_landmark_filter needs input: disparity (the filter works "
@@ -427,8 +426,15 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     if (landmarks_ && frame.disparity && !mapper_->isStationary(T_fixed_sensor)) {
       const std::size_t before = points_.size();
       std::string err;
-      if (!landmarks_->apply(camera_, T_fixed_sensor, stamp.toSec(), &points_, &err)) {
+      const LandmarkStreamStatus st =
+          landmarks_->apply(camera_, T_fixed_sensor, stamp.toSec(), &points_, &err);
+      if (st == LandmarkStreamStatus::kRejected) {
         reject("landmark filter", "dropped a disparity frame: " + err);
+        return;
+      }
+      if (st == LandmarkStreamStatus::kStationary) {  // the grid would skip it too
+        std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+        ++frames_stationary_;
         return;
       }
       {

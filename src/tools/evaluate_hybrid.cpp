@@ -10,14 +10,15 @@
 // shared dataset reader), and every LaserScan up to the pair is ray cast, from its pose in the
 // bag's tf, into the LaserGrid that the hybrid nodelet uses. Three maps are
 // built on the cells of each integrated frame's stereo safety map (core/hybrid_safety_map.h):
-// laser-only, stereo-only and merged. Measures:
+// laser-only, stereo-only and merged (and merged with laser-free unknown cells as safe). Measures:
 //  - Table 2 of 001: precision, recall and F1 of the safe class (A = safe in the map and in the
 //    ground truth, B = safe in the map only, C = safe in the ground truth only) for the three
 //    maps, from cell counts summed over all integrated frames of a dataset; each map counted on
-//    its own coverage (001's protocol) and on the cells that all three classify;
-//  - overhangs and low obstacles (--bag and --overhang-bag): the cells under obstacles entirely
-//    above the laser plane (table tops, shelves; not within 0.1 m of anything reaching below it)
-//    and the cells of obstacles entirely below it, and how each map labels them;
+//    its own coverage (001's protocol) and on the cells that all of them classify;
+//  - what the laser cannot see (--bag and --overhang-bag): the Non-ground cells under overhangs
+//    between the laser plane and the robot's height (table tops, shelves), of obstacles below the
+//    plane, and of ground hazards (drop-offs, steep or unreachable ground), and how each map
+//    labels them (laserBlindCells());
 //  - the landmark filter (001 Sec. 4.2) in front of the voxel grid (--noisy-bag): the same
 //    disparity images mapped without and with it; the stereo map's FP / FN rates (000 Sec.
 //    VII-A, unsafe positive) and safe-class scores, ghost points (points whose disparity differs
@@ -66,10 +67,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr int kSources = 3;
+// The three maps of 001 Table 2, and the merged map with laser_free_vision_unknown_is_safe
+// (laser-free cells that vision has not examined count as Safe), one reading of how 001's merged
+// map gained recall over stereo ("because lasers help").
+constexpr int kSources = 4;
 const HybridSource kSourceOrder[kSources] = {HybridSource::kLaserOnly, HybridSource::kStereoOnly,
-                                             HybridSource::kMerged};
-const char* const kSourceNames[kSources] = {"laser", "stereo", "merged"};
+                                             HybridSource::kMerged, HybridSource::kMerged};
+const char* const kSourceNames[kSources] = {"laser", "stereo", "merged",
+                                            "merged_laser_fills_unknown"};
 
 double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -235,33 +240,42 @@ double zMax(const ssm::BoardBox& b) {
   return z;
 }
 
-// Cells the laser cannot see by construction, in GT cell indices (u, v): under obstacles whose
-// bottom is above the laser plane and more than `margin` from any obstacle reaching into it
-// ("overhang"), and in obstacles whose top is below it ("low").
+// Ground-truth Non-ground cells the laser cannot see by construction, in GT cell indices (u, v),
+// three kinds: under obstacles whose bottom lies between the laser plane and the robot's height
+// (overhangs: table tops, shelves), in obstacles whose top lies below the laser plane (low
+// obstacles), and Non-ground cells with no obstacle within `margin` (ground hazards: below a
+// drop-off, too steep, unreachable). Cells within `margin` of an obstacle that reaches into the
+// laser plane are left out (the laser sees those).
+constexpr int kBlindKinds = 3;
+const char* const kBlindNames[kBlindKinds] = {"overhangs above the laser plane",
+                                              "obstacles below the laser plane",
+                                              "ground hazards (drop-offs, steep or unreachable)"};
+const char* const kBlindKeys[kBlindKinds] = {"overhang", "low", "ground"};
+
 struct LaserBlindCells {
-  std::vector<std::pair<int, int>> overhang, low;
-  std::vector<std::string> overhang_names, low_names;
+  std::vector<std::pair<int, int>> cells[kBlindKinds];
+  std::vector<std::string> names[kBlindKinds];  ///< obstacles that gave cells
 };
 
-LaserBlindCells laserBlindCells(const ssm::Dataset& d, double laser_z, double margin = 0.1) {
+LaserBlindCells laserBlindCells(const ssm::Dataset& d, double laser_z, double robot_height,
+                                double margin = 0.1) {
   LaserBlindCells out;
   const double res = d.gt.resolution;
   struct Xy {
     double x0, y0, x1, y1;
+    int kind;  // 0 above, 1 below, 2 through the laser plane, 3 above the robot
+    std::string name;
+    bool used;
   };
-  std::vector<Xy> above, low, through;
+  std::vector<Xy> boxes;
   for (const ssm::DatasetObstacle& o : d.obstacles) {
     Xy b;
     xyBounds(o.box, &b.x0, &b.y0, &b.x1, &b.y1);
-    if (zMin(o.box) > laser_z + 0.02) {
-      above.push_back(b);
-      out.overhang_names.push_back(o.name);
-    } else if (zMax(o.box) < laser_z - 0.02) {
-      low.push_back(b);
-      out.low_names.push_back(o.name);
-    } else {
-      through.push_back(b);
-    }
+    const double z0 = zMin(o.box), z1 = zMax(o.box);
+    b.kind = z0 > laser_z + 0.02 ? (z0 < robot_height ? 0 : 3) : (z1 < laser_z - 0.02 ? 1 : 2);
+    b.name = o.name;
+    b.used = false;
+    boxes.push_back(b);
   }
   for (int v = d.gt.min_v; v < d.gt.min_v + d.gt.height; ++v) {
     for (int u = d.gt.min_u; u < d.gt.min_u + d.gt.width; ++u) {
@@ -270,21 +284,30 @@ LaserBlindCells laserBlindCells(const ssm::Dataset& d, double laser_z, double ma
       const auto inside = [x, y](const Xy& b, double m) {
         return x >= b.x0 - m && x <= b.x1 + m && y >= b.y0 - m && y <= b.y1 + m;
       };
-      bool near_through = false;
-      for (const Xy& b : through)
-        near_through = near_through || inside(b, margin);
+      bool near_through = false, near_any = false;
+      Xy* low = nullptr;
+      Xy* above = nullptr;
+      for (Xy& b : boxes) {
+        if (b.kind == 3) continue;  // above the robot: not why the cell is Non-ground
+        near_any = near_any || inside(b, margin);
+        if (b.kind == 2) near_through = near_through || inside(b, margin);
+        if (b.kind == 1 && inside(b, 0.0)) low = &b;
+        if (b.kind == 0 && inside(b, 0.0)) above = &b;
+      }
       if (near_through) continue;
-      bool is_low = false, is_above = false;
-      for (const Xy& b : low)
-        is_low = is_low || inside(b, 0.0);
-      for (const Xy& b : above)
-        is_above = is_above || inside(b, 0.0);
-      if (is_low) {
-        out.low.emplace_back(u, v);
-      } else if (is_above) {
-        out.overhang.emplace_back(u, v);
+      if (low) {
+        out.cells[1].emplace_back(u, v);
+        low->used = true;
+      } else if (above) {
+        out.cells[0].emplace_back(u, v);
+        above->used = true;
+      } else if (!near_any) {
+        out.cells[2].emplace_back(u, v);
       }
     }
+  }
+  for (const Xy& b : boxes) {
+    if (b.used) out.names[b.kind].push_back(b.name);
   }
   return out;
 }
@@ -472,7 +495,7 @@ struct FusionResult {
   double laser_z = kNaN;
   ConfusionCounts own[kSources], common[kSources];
   LaserBlindCells blind;
-  CellClassCounts overhang, low;
+  CellClassCounts blind_counts[kBlindKinds];
   std::vector<double> laser_ms, build_ms, frame_ms;
   std::vector<std::string> images;
 };
@@ -503,6 +526,9 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
   lc.height = static_cast<int>(std::lround((config.mapper.grid.size_y + 2.0) / lc.resolution));
   ssm::LaserGrid laser(lc);
   ssm::HybridSafetyMapBuilder builder;
+  ssm::HybridSafetyMapConfig fill_config;
+  fill_config.laser_free_vision_unknown_is_safe = true;
+  ssm::HybridSafetyMapBuilder fill_builder(fill_config);
   HybridSafetyMap maps[kSources], common[kSources];
   sensor_msgs::LaserScanConstPtr scan;
   ssm::StereoBagFrame f;
@@ -532,7 +558,7 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
       ++r->scans;
       if (!blind_ready) {
         r->laser_z = T.translation().z();
-        r->blind = laserBlindCells(d, r->laser_z);
+        r->blind = laserBlindCells(d, r->laser_z, config.mapper.height_map.robot_height);
         blind_ready = true;
       }
     }
@@ -545,8 +571,10 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
     }
     ++r->integrated;
     const Clock::time_point tb = Clock::now();
-    for (int s = 0; s < kSources; ++s)
-      builder.build(kSourceOrder[s], proc.mapper().safetyMap(), laser, &maps[s]);
+    for (int s = 0; s < kSources; ++s) {
+      (s == 3 ? fill_builder : builder)
+          .build(kSourceOrder[s], proc.mapper().safetyMap(), laser, &maps[s]);
+    }
     r->build_ms.push_back(msSince(tb) / kSources);
     commonCells(maps, &common);
     for (int s = 0; s < kSources; ++s) {
@@ -555,8 +583,8 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
       if (!e.empty()) return d.name + ": " + e;
     }
     if (blind_ready) {
-      r->overhang.add(maps, r->blind.overhang);
-      r->low.add(maps, r->blind.low);
+      for (int k = 0; k < kBlindKinds; ++k)
+        r->blind_counts[k].add(maps, r->blind.cells[k]);
     }
     last_robot = f.robot;
     last_yaw = ssm::yawOfOpticalAxis(f.T_fixed_sensor);
@@ -578,14 +606,11 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
       }
     }
     // In the truth panel, the laser-blind cells as hazards (what 001's annotator would mark).
-    for (const auto& c : r->blind.overhang) {
-      if (gt_window.inside(c.first, c.second)) {
-        gt_window.labels[gt_window.index(c.first, c.second)] = HybridLabel::kHazard;
-      }
-    }
-    for (const auto& c : r->blind.low) {
-      if (gt_window.inside(c.first, c.second)) {
-        gt_window.labels[gt_window.index(c.first, c.second)] = HybridLabel::kHazard;
+    for (int k = 0; k < kBlindKinds; ++k) {
+      for (const auto& c : r->blind.cells[k]) {
+        if (gt_window.inside(c.first, c.second)) {
+          gt_window.labels[gt_window.index(c.first, c.second)] = HybridLabel::kHazard;
+        }
       }
     }
     std::vector<cv::Mat> panels;
@@ -822,13 +847,15 @@ int main(int argc, char** argv) {
       << ", \"scans\": " << r.scans << ", \"laser_z\": " << jnum(r.laser_z);
     for (int s = 0; s < kSources; ++s) {
       j << ", \"" << kSourceNames[s] << "\": {\"own\": " << countsJson(r.own[s])
-        << ", \"common\": " << countsJson(r.common[s]) << ", \"overhang_traversable\": "
-        << jnum(r.overhang.fraction(s, {HybridLabel::kSafe, HybridLabel::kCaution}))
-        << ", \"overhang_hazard\": " << jnum(r.overhang.fraction(s, {HybridLabel::kHazard}))
-        << ", \"overhang_classified\": " << r.overhang.classified(s) << ", \"low_traversable\": "
-        << jnum(r.low.fraction(s, {HybridLabel::kSafe, HybridLabel::kCaution}))
-        << ", \"low_hazard\": " << jnum(r.low.fraction(s, {HybridLabel::kHazard}))
-        << ", \"low_classified\": " << r.low.classified(s) << "}";
+        << ", \"common\": " << countsJson(r.common[s]);
+      for (int k = 0; k < kBlindKinds; ++k) {
+        const CellClassCounts& c = r.blind_counts[k];
+        j << ", \"" << kBlindKeys[k]
+          << "_traversable\": " << jnum(c.fraction(s, {HybridLabel::kSafe, HybridLabel::kCaution}))
+          << ", \"" << kBlindKeys[k] << "_hazard\": " << jnum(c.fraction(s, {HybridLabel::kHazard}))
+          << ", \"" << kBlindKeys[k] << "_classified\": " << c.classified(s);
+      }
+      j << "}";
     }
     j << ", \"laser_ms_median\": " << jnum(statsOf(r.laser_ms).median)
       << ", \"build_ms_median\": " << jnum(statsOf(r.build_ms).median) << "}";
@@ -875,11 +902,13 @@ int main(int argc, char** argv) {
        << opt.bags.size()
        << " datasets (A = safe in map and ground truth, B = safe in the map only, C = safe in the "
           "ground truth only; Unknown cells do not count). *Own*: each map on the cells it "
-          "classifies (001's protocol); *common*: the cells all three classify.\n\n"
+          "classifies (001's protocol); *common*: the cells all of them classify. "
+          "merged_laser_fills_unknown: the merged map with laser_free_vision_unknown_is_safe "
+          "(laser-free cells vision has not examined are Safe).\n\n"
        << "| map | precision | recall | F1 | precision (common) | recall (common) | F1 (common) "
           "| 001 Table 2 (P / R / F1) |\n|---|---|---|---|---|---|---|---|\n";
-    const char* paper[kSources] = {"0.78 / 0.99 / 0.87", "0.94 / 0.86 / 0.90",
-                                   "0.94 / 0.89 / 0.92"};
+    const char* paper[kSources] = {"0.78 / 0.99 / 0.87", "0.94 / 0.86 / 0.90", "0.94 / 0.89 / 0.92",
+                                   "-"};
     for (int s = 0; s < kSources; ++s) {
       const ssm::SafeClassScores a = ssm::safeClassScores(total_own[s]);
       const ssm::SafeClassScores b = ssm::safeClassScores(total_common[s]);
@@ -888,7 +917,7 @@ int main(int argc, char** argv) {
          << " | " << paper[s] << " |\n";
     }
     md << "\nPer dataset (own coverage, P / R / F1):\n\n| dataset | frames | laser | stereo | "
-          "merged |\n|---|---|---|---|---|\n";
+          "merged | merged, laser fills unknown |\n|---|---|---|---|---|---|\n";
     for (std::size_t k = 0; k < fusion.size(); ++k) {
       const FusionResult& r = fusion[k];
       md << "| " << r.name << (k < opt.bags.size() ? "" : " (not in the total)") << " | "
@@ -902,27 +931,30 @@ int main(int argc, char** argv) {
   }
   if (!fusion.empty()) {
     md << "\n## What the laser cannot see\n\n"
-       << "Ground-truth Non-ground cells under obstacles entirely above the laser plane (table "
-          "tops, shelves; more than 0.1 m from anything reaching into the plane) and of obstacles "
-          "entirely below it, over all integrated frames: the share of the cells each map "
-          "classifies that it calls traversable (Safe / Caution) or Hazard.\n\n"
-       << "| dataset | cells | laser: traversable | stereo: traversable | merged: traversable | "
-          "merged: hazard |\n|---|---|---|---|---|---|\n";
+       << "Ground-truth Non-ground cells the laser cannot see: under obstacles whose bottom "
+          "lies between the laser plane and the robot's height (overhangs: table tops, shelves), "
+          "in obstacles entirely below the plane, and Non-ground ground with no obstacle within "
+          "0.1 m (below drop-offs, too steep, unreachable); cells within 0.1 m of an obstacle "
+          "that reaches into the plane are left out. Over all integrated frames: the share of "
+          "the cell observations each map classifies (not Unknown) that it calls traversable "
+          "(Safe / Caution) or Hazard, and how many it classifies.\n\n"
+       << "| dataset | kind (obstacles) | GT cells | laser: traversable | stereo: traversable | "
+          "merged: traversable | merged: hazard | observations classified (laser / stereo / "
+          "merged) |\n|---|---|---|---|---|---|---|---|\n";
     for (const FusionResult& r : fusion) {
-      for (int kind = 0; kind < 2; ++kind) {
-        const CellClassCounts& c = kind == 0 ? r.overhang : r.low;
-        const std::vector<std::string>& names =
-            kind == 0 ? r.blind.overhang_names : r.blind.low_names;
-        if (names.empty()) continue;
+      for (int kind = 0; kind < kBlindKinds; ++kind) {
+        const CellClassCounts& c = r.blind_counts[kind];
+        if (r.blind.cells[kind].empty()) continue;
         std::string list;
-        for (const std::string& n : names)
+        for (const std::string& n : r.blind.names[kind])
           list += (list.empty() ? "" : ", ") + n;
-        md << "| " << r.name << ", " << (kind == 0 ? "above" : "below") << " the laser plane ("
-           << list << ") | " << (kind == 0 ? r.blind.overhang.size() : r.blind.low.size()) << " | "
-           << pct(c.fraction(0, {HybridLabel::kSafe, HybridLabel::kCaution})) << " | "
+        md << "| " << r.name << " | " << kBlindNames[kind]
+           << (list.empty() ? "" : " (" + list + ")") << " | " << r.blind.cells[kind].size()
+           << " | " << pct(c.fraction(0, {HybridLabel::kSafe, HybridLabel::kCaution})) << " | "
            << pct(c.fraction(1, {HybridLabel::kSafe, HybridLabel::kCaution})) << " | "
            << pct(c.fraction(2, {HybridLabel::kSafe, HybridLabel::kCaution})) << " | "
-           << pct(c.fraction(2, {HybridLabel::kHazard})) << " |\n";
+           << pct(c.fraction(2, {HybridLabel::kHazard})) << " | " << c.classified(0) << " / "
+           << c.classified(1) << " / " << c.classified(2) << " |\n";
       }
     }
     for (const FusionResult& r : fusion) {

@@ -204,6 +204,18 @@ TEST(StereoFrameProcessor, LandmarkFilterSkipsStationaryFramesAndNeedsAStamp) {
   EXPECT_FALSE(
       p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err));  // no stamp
   EXPECT_NE(err.find("stamp"), std::string::npos) << err;
+  // Standing still before the first map: only the first frame reaches the filter, the others
+  // are stationary (they would confirm each other's points).
+  for (int k = 0; k < 4; ++k) {
+    p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err, -1.0 + 0.1 * k);
+    EXPECT_EQ(r.landmark_filter_ran, k == 0) << k;
+    if (k > 0) {
+      EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+    }
+  }
+  EXPECT_EQ(p.landmarkFilter().stats().permanent, 0u);
+  EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
+  p.reset();
   for (int k = 0; k < 4; ++k) {
     Eigen::Isometry3f moved = T;
     moved.translation().x() += 0.05f * k;

@@ -245,39 +245,55 @@ void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
 //
 // The filter needs frames taken from different poses (001: "removing noise from dense stereo
 // data using motion"): a mismatch repeats in every frame of a stationary camera and would be
-// confirmed. Callers therefore feed it only the frames the voxel grid integrates (000 Sec. IV
-// skips stationary frames; SafetyMapper::isStationary()).
+// confirmed. The stream filter therefore skips frames taken while the camera has not moved since
+// the last frame it used, with the voxel grid's thresholds (000 Sec. IV), also before the grid has
+// integrated anything; the caller drops such frames, as the grid would.
+
+struct SafetyMapperConfig;
 
 /// Whether and how the stream is filtered (a parameter of the safety-map pipeline).
 struct LandmarkStreamConfig {
   bool enabled = false;  ///< off: 000's pipeline as published; on: 001's filter in front of it
   LandmarkFilterConfig filter;
+  /// Frames from a camera that moved less than both thresholds since the last frame the filter
+  /// used are skipped (000 Sec. IV's rule for the grid; forMapper() copies the grid's values).
+  bool skip_stationary_frames = true;
+  double stationary_translation = 0.02;  ///< [m], [0, 100]
+  double stationary_rotation_deg = 1.0;  ///< [deg], [0, 180]
 
-  /// This configuration with the filter's depth range set to the grid's [min_range, max_range]
-  /// (the points the grid would use; min_depth at least 1 mm) and max_landmark_distance raised to
-  /// max_range when it was smaller.
-  LandmarkStreamConfig forRange(double min_range, double max_range) const;
-  /// Empty when valid (filter.validate(), also while disabled), else why not.
-  std::string validate() const { return filter.validate(); }
+  /// This configuration for the voxel grid it feeds: the filter's depth range is the grid's
+  /// [min_range, max_range] (min_depth at least 1 mm; max_landmark_distance raised to max_range
+  /// when smaller) and stationary frames are those the mapper skips.
+  LandmarkStreamConfig forMapper(const SafetyMapperConfig& mapper) const;
+  /// Empty when valid (also while disabled), else why not.
+  std::string validate() const;
+};
+
+/// What LandmarkStreamFilter::apply() did with a frame.
+enum class LandmarkStreamStatus : std::uint8_t {
+  kFiltered = 0,    ///< points filtered (possibly to none: no landmark is permanent yet)
+  kStationary = 1,  ///< the camera has not moved: frame not used, to be dropped by the caller
+  kRejected = 2,    ///< unusable camera, non-finite pose or stamp: frame not used
 };
 
 class LandmarkStreamFilter {
  public:
   /// Throws std::invalid_argument when config.validate() is not empty.
-  explicit LandmarkStreamFilter(const LandmarkFilterConfig& config = LandmarkFilterConfig());
+  explicit LandmarkStreamFilter(const LandmarkStreamConfig& config = LandmarkStreamConfig());
 
   /// Runs the filter on one frame and removes from `*points` (camera frame, e.g. from
   /// reprojectDisparity) every point that no permanent landmark confirms; the order of the kept
   /// points is preserved. `camera` is the frame's camera (a change of geometry restarts the
-  /// filter: landmarks live in image coordinates). Returns false, with *error set and *points
-  /// untouched, when the camera cannot be used or the pose / stamp is not finite.
-  bool apply(const StereoCameraModel& camera, const Eigen::Isometry3f& T_fixed_camera, double stamp,
-             std::vector<Eigen::Vector3f>* points, std::string* error = nullptr);
+  /// filter: landmarks live in image coordinates). kStationary and kRejected (with *error set)
+  /// leave *points untouched; the caller drops the frame.
+  LandmarkStreamStatus apply(const StereoCameraModel& camera,
+                             const Eigen::Isometry3f& T_fixed_camera, double stamp,
+                             std::vector<Eigen::Vector3f>* points, std::string* error = nullptr);
 
   /// Forgets every landmark (the next frame starts afresh).
   void reset();
 
-  /// Stats of the last apply() (empty before the first).
+  /// Stats of the last apply() that filtered (empty before the first).
   const LandmarkFilterStats& stats() const { return stats_; }
   /// Wall time of the last apply() [ms].
   double lastMs() const { return last_ms_; }
@@ -292,9 +308,11 @@ class LandmarkStreamFilter {
   std::size_t cameraChanges() const { return camera_changes_; }
 
  private:
-  LandmarkFilterConfig config_;
+  LandmarkStreamConfig config_;
   std::unique_ptr<LandmarkFilter> filter_;
   StereoCameraModel camera_;
+  bool has_last_pose_ = false;
+  Eigen::Isometry3f last_pose_ = Eigen::Isometry3f::Identity();
   std::vector<std::uint8_t> keep_;
   LandmarkFilterStats stats_;
   double last_ms_ = 0.0;

@@ -36,8 +36,8 @@ struct StereoFrameProcessorConfig {
   SafetyMapperConfig mapper;
   int disparity_step =
       1;  ///< reproject every n-th row and column, [1, 16] (nodelet's ~disparity_step)
-  /// 001's landmark filter in front of the voxel grid (off by default). Its depth range is the
-  /// grid's [min_range, max_range] (LandmarkStreamConfig::forRange()).
+  /// 001's landmark filter in front of the voxel grid (off by default). Its depth range and
+  /// stationary-frame thresholds are the mapper's (LandmarkStreamConfig::forMapper()).
   LandmarkStreamConfig landmark_filter;
 
   /// Empty when valid, otherwise a message naming the parameter and its range.

@@ -20,7 +20,7 @@ namespace stereo_safety_map {
 
 /// The safety-map nodelet's landmark-filter parameters: use_landmark_filter and the
 /// LandmarkFilterConfig fields prefixed with landmark_ (landmark_gate_chi2, ...; the depth range
-/// is the grid's min_range / max_range, see LandmarkStreamConfig::forRange()).
+/// and the stationary-frame thresholds are the mapper's, see LandmarkStreamConfig::forMapper()).
 std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* config);
 /// The names read by the function above.
 std::vector<std::string> landmarkParameterNames();
