@@ -58,3 +58,42 @@ ssm_source_ws() {
   source "$SSM_WS/devel/setup.bash"
   set -u
 }
+
+# Key of a rendered dataset: the scene file, the render options and the renderer's sources. A
+# cached bag whose key differs is rendered again, so a changed scene or renderer never leaves a
+# stale dataset behind.
+ssm_dataset_key() {  # scene render-options...
+  local scene="$1"
+  shift
+  {
+    cat "$scene"
+    echo "options: $*"
+    cat "$SSM_ROOT"/src/dataset/*.cpp "$SSM_ROOT"/include/stereo_safety_map/dataset/*.h \
+      "$SSM_ROOT"/src/tools/make_dataset.cpp
+  } | sha1sum | cut -d' ' -f1
+}
+
+# Renders a scene (all its variants) into a folder unless every expected bag is there with the
+# current key. Usage: ssm_render_scene BIN_DIR SCENE OUT_DIR "OPTS" NAME...
+ssm_render_scene() {
+  local bin="$1" scene="$2" data="$3" opts="$4"
+  shift 4
+  local key name stale=0
+  # shellcheck disable=SC2086
+  key=$(ssm_dataset_key "$scene" $opts)
+  for name in "$@"; do
+    if [[ ! -f "$data/$name.bag" || ! -d "$data/${name}_gt" ||
+      "$(cat "$data/$name.key" 2> /dev/null)" != "$key" ]]; then
+      stale=1
+    fi
+  done
+  [[ $stale -eq 0 ]] && return 0
+  mkdir -p "$data"
+  ssm_log "rendering $(basename "$scene") into $data (cached for the next run)"
+  # shellcheck disable=SC2086
+  "$bin/make_dataset" --scene "$scene" --out "$data" $opts --variant all > "$data/$(basename "$scene" .yaml).log" 2>&1 || {
+    cat "$data/$(basename "$scene" .yaml).log" >&2
+    return 1
+  }
+  for name in "$@"; do echo "$key" > "$data/$name.key"; done
+}

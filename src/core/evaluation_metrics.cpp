@@ -268,7 +268,9 @@ PlaneAccuracy comparePlane(const GroundPlane& detected, const std::vector<int>& 
 
 // ---------------------------------------------------------------------------------------------
 
-BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board) {
+BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board,
+                                 std::vector<std::uint8_t>* covered_bins) {
+  if (covered_bins != nullptr) covered_bins->clear();
   BoardCoverage cov;
   const double lv = grid.config().voxel_size;
   if (!board.center.allFinite() || !board.rotation.allFinite() || !board.half_size.allFinite() ||
@@ -346,6 +348,60 @@ BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board) {
   }
   for (char h : hit)
     cov.covered += h ? 1 : 0;
+  if (covered_bins != nullptr) covered_bins->assign(hit.begin(), hit.end());
+  return cov;
+}
+
+BoardCoverage boardWidthCoverageOfCells(const SafetyMap& map,
+                                        const std::vector<std::uint8_t>& marked,
+                                        const BoardBox& board,
+                                        std::vector<std::uint8_t>* covered_bins) {
+  BoardCoverage cov;
+  const double lv = map.resolution;
+  const std::size_t cells = static_cast<std::size_t>(std::max(0, map.width)) *
+                            static_cast<std::size_t>(std::max(0, map.height));
+  if (!(lv > 0.0) || marked.size() != cells || !board.center.allFinite() ||
+      !board.rotation.allFinite() || !board.half_size.allFinite() ||
+      (board.half_size.array() < 0.0).any())
+    return cov;
+  // The same axes and bins as boardWidthCoverage().
+  int h_axis = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (std::abs(board.rotation(2, k)) > std::abs(board.rotation(2, h_axis))) h_axis = k;
+  }
+  const int a0 = (h_axis + 1) % 3, a1 = (h_axis + 2) % 3;
+  const int w_axis = board.half_size[a0] >= board.half_size[a1] ? a0 : a1;
+  const int t_axis = w_axis == a0 ? a1 : a0;
+  const double half_width = board.half_size[w_axis];
+  cov.bins = std::max(1, static_cast<int>(std::ceil(2.0 * half_width / lv - 1e-9)));
+  const double bin = 2.0 * half_width / cov.bins;
+  if (covered_bins != nullptr && covered_bins->size() != static_cast<std::size_t>(cov.bins))
+    covered_bins->assign(static_cast<std::size_t>(cov.bins), 0);
+
+  // The footprint at a sample: the board's section across its thickness (with one cell of
+  // slack) and its height, sampled every quarter cell.
+  const double ht = board.half_size[t_axis] + lv, hh = board.half_size[h_axis];
+  const double step = 0.25 * lv;
+  const int nt = static_cast<int>(std::ceil(2.0 * ht / step)),
+            nh = static_cast<int>(std::ceil(2.0 * hh / step));
+  for (int b = 0; b < cov.bins; ++b) {
+    const double tw = (b + 0.5) * bin - half_width;
+    bool hit = false;
+    for (int i = 0; i <= nt && !hit; ++i) {
+      for (int j = 0; j <= nh && !hit; ++j) {
+        const Eigen::Vector3d p =
+            board.center + board.rotation.col(w_axis) * tw +
+            board.rotation.col(t_axis) * (-ht + 2.0 * ht * i / std::max(1, nt)) +
+            board.rotation.col(h_axis) * (-hh + 2.0 * hh * j / std::max(1, nh));
+        const int u = static_cast<int>(std::floor(p.x() / lv + 0.5));
+        const int v = static_cast<int>(std::floor(p.y() / lv + 0.5));
+        if (map.inside(u, v) && marked[static_cast<std::size_t>(map.index(u, v))] != 0) hit = true;
+      }
+    }
+    if (!hit) continue;
+    ++cov.covered;
+    if (covered_bins != nullptr) (*covered_bins)[static_cast<std::size_t>(b)] = 1;
+  }
   return cov;
 }
 

@@ -19,6 +19,9 @@ std::string GroundSegmentationConfig::validate() const {
   if (!std::isfinite(seed_radius) || seed_radius < 0.0 || seed_radius > 1000.0) {
     return "seed_radius must be in [0, 1000] m";
   }
+  if (island_max_span < 0 || island_max_span > 1000) {
+    return "island_max_span must be in [0, 1000] voxels";
+  }
   return "";
 }
 
@@ -55,6 +58,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   s.segment_begin.assign(1, 0);
   s.segment_cells.clear();
   s.segment_height.clear();
+  s.segment_island.clear();
   s.non_traversable.clear();
   if (!std::isfinite(voxel_size) || voxel_size <= 0.0) return false;
 
@@ -114,56 +118,85 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   static constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   const int num_nb = eight ? 8 : 4;
 
-  pending_.clear();
-  std::size_t pending_head = 0;
-  int c = s.seed_cell;
-  while (c >= 0) {
-    // Step 5: new segment S_k holding cell c.
-    const int k = s.numSegments();
-    const std::int32_t wk = hm.atIndex(c);
-    s.segment_height.push_back(wk);
-    s.segment_of[c] = k;
-    s.segment_cells.push_back(c);
-    to_compare_.clear();
-    to_compare_.push_back(c);
-    // Steps 6-18: compare every cell of S_k with its examined neighbours.
-    while (!to_compare_.empty()) {
-      const int ci = to_compare_.back();
-      to_compare_.pop_back();
-      const int ui = ci % w_cells, vi = ci / w_cells;
-      for (int j = 0; j < num_nb; ++j) {
-        const int un = ui + kDu[j], vn = vi + kDv[j];
-        if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
-        const int cn = vn * w_cells + un;
-        if (!s.examined[cn]) continue;
-        const std::int32_t wn = hm.atIndex(cn);
-        if (wn == HeightMap::kNoHeight) continue;
-        if (wn == wk) {
-          // Step 12. Equal-height neighbours always end up in the same segment, so a cell
-          // of this height already in a segment is in this one.
-          if (s.segment_of[cn] < 0) {
-            s.segment_of[cn] = k;
-            s.segment_cells.push_back(cn);
-            to_compare_.push_back(cn);
+  compared_.assign(n, 0);
+  locked_.assign(n, 0);
+  const int max_span = config_.island_max_span;
+  // Grows segments from cell c by Alg. 1 steps 5-21; island segments do not take columns that
+  // are locked or span more than island_max_span voxels.
+  auto grow = [&](int c, bool island) {
+    pending_.clear();
+    std::size_t pending_head = 0;
+    auto admissible = [&](int cell) {
+      if (!island) return true;
+      if (locked_[cell]) return false;
+      return static_cast<long long>(hm.atIndex(cell)) - hm.lowestAtIndex(cell) <= max_span;
+    };
+    while (c >= 0) {
+      // Step 5: new segment S_k holding cell c.
+      const int k = s.numSegments();
+      const std::int32_t wk = hm.atIndex(c);
+      s.segment_height.push_back(wk);
+      s.segment_island.push_back(island ? 1 : 0);
+      s.segment_of[c] = k;
+      s.segment_cells.push_back(c);
+      to_compare_.clear();
+      to_compare_.push_back(c);
+      // Steps 6-18: compare every cell of S_k with its examined neighbours.
+      while (!to_compare_.empty()) {
+        const int ci = to_compare_.back();
+        to_compare_.pop_back();
+        const int ui = ci % w_cells, vi = ci / w_cells;
+        for (int j = 0; j < num_nb; ++j) {
+          const int un = ui + kDu[j], vn = vi + kDv[j];
+          if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
+          const int cn = vn * w_cells + un;
+          if (!s.examined[cn]) continue;
+          const std::int32_t wn = hm.atIndex(cn);
+          if (wn == HeightMap::kNoHeight) continue;
+          compared_[cn] = 1;
+          if (!admissible(cn)) continue;
+          if (wn == wk) {
+            // Step 12. Equal-height neighbours always end up in the same segment, so a cell
+            // of this height already in a segment is in this one.
+            if (s.segment_of[cn] < 0) {
+              s.segment_of[cn] = k;
+              s.segment_cells.push_back(cn);
+              to_compare_.push_back(cn);
+            }
+          } else if (std::llabs(static_cast<long long>(wn) - wk) <= w_t) {
+            // Step 14: close in height, may start a new segment.
+            if (s.segment_of[cn] < 0) pending_.push_back(cn);
           }
-        } else if (std::llabs(static_cast<long long>(wn) - wk) <= w_t) {
-          // Step 14: close in height, may start a new segment.
-          if (s.segment_of[cn] < 0) pending_.push_back(cn);
+        }
+      }
+      s.segment_begin.push_back(static_cast<int>(s.segment_cells.size()));
+      // Steps 19-21: pop L_U until a cell in no segment is found.
+      c = -1;
+      while (pending_head < pending_.size()) {
+        const int p = pending_[pending_head++];
+        if (s.segment_of[p] < 0) {
+          c = p;
+          break;
         }
       }
     }
-    s.segment_begin.push_back(static_cast<int>(s.segment_cells.size()));
-    // Steps 19-21: pop L_U until a cell in no segment is found.
-    c = -1;
-    while (pending_head < pending_.size()) {
-      const int p = pending_[pending_head++];
-      if (s.segment_of[p] < 0) {
-        c = p;
-        break;
-      }
+  };
+  grow(s.seed_cell, false);
+  if (s.seed_cell >= 0) s.robot_segment = 0;
+
+  if (config_.segment_islands) {
+    // Columns Alg. 1 compared and left out keep 000's verdict: non-traversable.
+    for (int cell = 0; cell < n; ++cell)
+      locked_[cell] = compared_[cell] && s.segment_of[cell] < 0;
+    for (int cell = 0; cell < n; ++cell) {
+      if (!s.examined[cell] || s.segment_of[cell] >= 0 || locked_[cell] || compared_[cell])
+        continue;
+      const std::int32_t w = hm.atIndex(cell);
+      if (w == HeightMap::kNoHeight) continue;
+      if (static_cast<long long>(w) - hm.lowestAtIndex(cell) > max_span) continue;
+      grow(cell, true);
     }
   }
-  if (s.seed_cell >= 0) s.robot_segment = 0;
 
   // Non-traversable columns (000, Sec. V-A): a height, within R_max, in no segment.
   for (int cell = 0; cell < n; ++cell) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace stereo_safety_map {
@@ -24,10 +25,23 @@ void HeightMap::reset(int min_u, int min_v, int width, int height) {
   width_ = std::max(0, width);
   height_ = std::max(0, height);
   w_.assign(static_cast<std::size_t>(width_) * height_, kNoHeight);
+  w_low_.assign(w_.size(), kNoHeight);
+  surface_z_.assign(w_.size(), std::numeric_limits<float>::quiet_NaN());
+}
+
+void HeightMap::setSurfaceHeight(int u, int v, float z) {
+  if (inside(u, v)) surface_z_[index(u, v)] = z;
 }
 
 void HeightMap::set(int u, int v, std::int32_t w) {
-  if (inside(u, v)) w_[index(u, v)] = w;
+  set(u, v, w, w);
+}
+
+void HeightMap::set(int u, int v, std::int32_t w, std::int32_t w_low) {
+  if (!inside(u, v)) return;
+  w_[index(u, v)] = w;
+  w_low_[index(u, v)] = w == kNoHeight ? kNoHeight : std::min(w, w_low);
+  if (w == kNoHeight) surface_z_[index(u, v)] = std::numeric_limits<float>::quiet_NaN();
 }
 
 bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
@@ -53,12 +67,24 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
 
   for (int v = lo.v; v < lo.v + height_; ++v) {
     std::int32_t* row = &w_[static_cast<std::size_t>(v - lo.v) * width_];
+    std::int32_t* row_low = &w_low_[static_cast<std::size_t>(v - lo.v) * width_];
+    float* row_z = &surface_z_[static_cast<std::size_t>(v - lo.v) * width_];
     for (int u = lo.u; u < lo.u + width_; ++u) {
-      // Scan down from the robot's top; the first occupied voxel is the column's height.
+      // Scan down from the robot's top; the first occupied voxel is the column's height, the
+      // last one its lowest.
       for (int w = w_hi; w >= w_lo; --w) {
         if (grid.isOccupied(VoxelIndex{u, v, w})) {
-          row[u - lo.u] = w;
-          break;
+          if (row[u - lo.u] == kNoHeight) {
+            row[u - lo.u] = w;
+            const VoxelPointList pts = grid.points(VoxelIndex{u, v, w});
+            if (!pts.empty()) {
+              float sum = 0.0f;
+              for (const VoxelPoint& p : pts)
+                sum += p.position.z();
+              row_z[u - lo.u] = sum / static_cast<float>(pts.size);
+            }
+          }
+          row_low[u - lo.u] = w;
         }
       }
     }

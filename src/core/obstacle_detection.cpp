@@ -114,6 +114,35 @@ const char* toString(ObstacleRejection r) {
   return "unknown";
 }
 
+double estimateFocalLength(const cv::Mat& range_image) {
+  if (range_image.empty() || range_image.type() != CV_32FC3) return 0.0;
+  // Every pixel of a sparse lattice (at most ~4000 samples): the fit needs few.
+  const int step = std::max(1, static_cast<int>(std::sqrt(range_image.total() / 4000.0)));
+  double n = 0.0, su = 0.0, sr = 0.0, suu = 0.0, srr = 0.0, sur = 0.0;
+  int u_min = range_image.cols, u_max = -1;
+  for (int v = 0; v < range_image.rows; v += step) {
+    const cv::Vec3f* row = range_image.ptr<cv::Vec3f>(v);
+    for (int u = 0; u < range_image.cols; u += step) {
+      const float x = row[u][0], z = row[u][2];
+      if (!(z > 0.0f) || !std::isfinite(x) || !std::isfinite(z)) continue;
+      const double r = static_cast<double>(x) / z;
+      n += 1.0;
+      su += u;
+      sr += r;
+      suu += static_cast<double>(u) * u;
+      srr += r * r;
+      sur += u * r;
+      u_min = std::min(u_min, u);
+      u_max = std::max(u_max, u);
+    }
+  }
+  if (n < 100.0 || u_max - u_min < 10) return 0.0;
+  const double var_r = srr - sr * sr / n, cov = sur - su * sr / n;
+  if (!(var_r > 0.0)) return 0.0;
+  const double f = cov / var_r;
+  return std::isfinite(f) && f > 0.0 ? f : 0.0;
+}
+
 ObstacleDetector::ObstacleDetector(const ObstacleDetectionConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument("ObstacleDetectionConfig: " + err);

@@ -17,6 +17,7 @@ std::string PlaneFitConfig::validate() const {
   if (!std::isfinite(min_xy_stddev) || min_xy_stddev <= 0.0 || min_xy_stddev > 10.0) {
     return "min_xy_stddev must be in (0, 10] m";
   }
+  if (vertical_margin < 0 || vertical_margin > 3) return "vertical_margin must be in [0, 3] voxels";
   return "";
 }
 
@@ -99,13 +100,44 @@ GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments&
   if (k < 0 || k >= segments.numSegments()) return GroundPlane();
   // 000 Sec. V-B: the points of the segment's voxels, i.e. of voxel (u, v, w_k) of each column.
   const int w = segments.segment_height[k];
+  auto addLayer = [&](PlaneFitAccumulator* acc, int dw, const GroundPlane* gate, double tol) {
+    for (const int* c = segments.cellsBegin(k); c != segments.cellsEnd(k); ++c) {
+      const VoxelPointList list =
+          grid.points(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w + dw});
+      for (const VoxelPoint& p : list) {
+        if (gate != nullptr &&
+            !(std::abs(p.position.z() - gate->heightAt(p.position.x(), p.position.y())) <= tol))
+          continue;
+        acc->add(p.position);
+      }
+    }
+  };
   PlaneFitAccumulator acc;
-  for (const int* c = segments.cellsBegin(k); c != segments.cellsEnd(k); ++c) {
-    const VoxelPointList list = grid.points(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w});
-    for (const VoxelPoint& p : list)
-      acc.add(p.position);
+  addLayer(&acc, 0, nullptr, 0.0);
+  if (config_.vertical_margin == 0) return acc.fit(config_);
+  // PlaneFitConfig::vertical_margin: a first fit on the band and all the points that spilled
+  // into the layers above and below (stereo noise cut off at the band's top and bottom), then
+  // two refits on the band's points and those spilled points within 2.5 RMS residuals (at least
+  // a quarter voxel) of the previous plane, so that the bases of obstacles and other surfaces
+  // in those layers drop out again.
+  PlaneFitAccumulator all = acc;
+  for (int dw = 1; dw <= config_.vertical_margin; ++dw) {
+    addLayer(&all, dw, nullptr, 0.0);
+    addLayer(&all, -dw, nullptr, 0.0);
   }
-  return acc.fit(config_);
+  GroundPlane plane = all.fit(config_);
+  if (!plane.valid) return acc.fit(config_);
+  const double l = grid.config().voxel_size;
+  for (int pass = 0; pass < 2; ++pass) {
+    const double tol = std::max(2.5 * plane.residual_rms, 0.25 * l);
+    PlaneFitAccumulator gated;
+    for (int dw = -config_.vertical_margin; dw <= config_.vertical_margin; ++dw)
+      addLayer(&gated, dw, &plane, tol);
+    const GroundPlane refit = gated.fit(config_);
+    if (!refit.valid) break;
+    plane = refit;
+  }
+  return plane;
 }
 
 void PlaneFitter::fitAll(const VoxelGrid& grid, const GroundSegments& segments,

@@ -13,6 +13,12 @@ namespace {
 enum SegState : std::uint8_t { kStUnexamined, kStUnknown, kStNonGround, kStSafe };
 
 constexpr int kDu[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+// Distinct segments one boundary cell is compared with: its 8 neighbours and, across gaps, at
+// most (2 (max_gap_cells + 1) + 1)^2 - 1 = 528 cells; more than 64 distinct segments around one
+// cell do not occur in a height map (each needs its own cells).
+constexpr int kMaxNeighbourSegments = 64;
+// Marks a cell whose local surface height is not computed yet (heights are far below it).
+constexpr float kLocalZPending = -1e30f;
 constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
 
 std::int16_t toInt16Height(std::int32_t w) {
@@ -41,6 +47,7 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(level_slope_deg) || level_slope_deg < 0.0 || level_slope_deg > max_slope_deg) {
     return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
   }
+  if (max_gap_cells < 0 || max_gap_cells > 10) return "max_gap_cells must be in [0, 10]";
   if (!std::isfinite(drop_off_radius) || drop_off_radius < 0.0 || drop_off_radius > 10.0) {
     return "drop_off_radius must be in [0, 10] m";
   }
@@ -53,6 +60,28 @@ std::string SafetyLabellingConfig::validate() const {
 SafetyLabelling::SafetyLabelling(const SafetyLabellingConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument("SafetyLabellingConfig: " + err);
+}
+
+float SafetyLabelling::localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c) {
+  float& z = local_z_[c];
+  if (z != kLocalZPending) return z;  // computed before (NaN included)
+  const int k = segs.segment_of[c];
+  const int width = segs.width, u = c % width, v = c / width;
+  const int r = kLocalSurfaceRadius;
+  double sum = 0.0;
+  int count = 0;
+  for (int vn = std::max(0, v - r); vn <= std::min(segs.height - 1, v + r); ++vn) {
+    for (int un = std::max(0, u - r); un <= std::min(width - 1, u + r); ++un) {
+      const int cn = vn * width + un;
+      if (segs.segment_of[cn] != k) continue;
+      const float zn = hm.surfaceHeightAtIndex(cn);
+      if (std::isnan(zn)) continue;
+      sum += zn;
+      ++count;
+    }
+  }
+  z = count > 0 ? static_cast<float>(sum / count) : std::numeric_limits<float>::quiet_NaN();
+  return z;
 }
 
 int SafetyLabelling::okCount(int s, int r) const {
@@ -109,8 +138,12 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
 
   // Interior and boundary cells (000, Sec. VI): interior cells have all 8 neighbours in their
   // own segment; cells on the map's edge have fewer than 8 and are boundary cells.
+  const int gap = config_.max_gap_cells;
+  const int reach = gap + 1;
+  const bool measured = config_.measured_step_test;
   m.segments.resize(nseg);
   boundary_.assign(n, 0);
+  if (measured) local_z_.assign(n, kLocalZPending);
   contacts_.clear();
   for (int k = 0; k < nseg; ++k) {
     SegmentInfo& info = m.segments[k];
@@ -121,11 +154,29 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     info.num_boundary = 0;
     info.plane = k < static_cast<int>(planes.size()) ? planes[k] : GroundPlane();
     info.reachable = false;
+    info.island = k < static_cast<int>(segs.segment_island.size()) && segs.segment_island[k] != 0;
     const GroundPlane* ps = planeOf(k);
     for (const int c : info.cells) {
       const int u = c % width, v = c / width;
-      int nb_seg[8];
+      int nb_seg[kMaxNeighbourSegments];
+      bool nb_close[kMaxNeighbourSegments];  // a cell of it has a measured height within h_T
       int num_nb_seg = 0;
+      const float zc = measured ? localSurfaceHeight(hm, segs, c) : 0.0f;
+      // Records cell cn of segment r as a neighbour of c.
+      auto addNeighbour = [&](int r, int cn) {
+        int j = 0;
+        while (j < num_nb_seg && nb_seg[j] != r)
+          ++j;
+        if (j == num_nb_seg) {
+          if (num_nb_seg >= kMaxNeighbourSegments) return;
+          nb_seg[num_nb_seg] = r;
+          nb_close[num_nb_seg++] = false;
+        }
+        if (measured) {
+          const float zn = localSurfaceHeight(hm, segs, cn);
+          nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: false
+        }
+      };
       bool interior = true;
       for (int j = 0; j < 8; ++j) {
         const int un = u + kDu[j], vn = v + kDv[j];
@@ -136,10 +187,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         const int r = segs.segment_of[vn * width + un];
         if (r == k) continue;
         interior = false;
-        if (r < 0) continue;
-        if (std::find(nb_seg, nb_seg + num_nb_seg, r) == nb_seg + num_nb_seg) {
-          nb_seg[num_nb_seg++] = r;
-        }
+        if (r >= 0) addNeighbour(r, vn * width + un);
       }
       if (interior) {
         ++info.num_interior;
@@ -147,13 +195,38 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       }
       ++info.num_boundary;
       boundary_[c] = 1;
-      // Alg. 2 steps 14-19 for this cell against every neighbouring segment.
+      if (gap > 0) {
+        // Segments across a gap of unobserved columns (SafetyLabellingConfig::max_gap_cells).
+        for (int dv = -reach; dv <= reach; ++dv) {
+          const int vn = v + dv;
+          if (vn < 0 || vn >= m.height) continue;
+          for (int du = -reach; du <= reach; ++du) {
+            const int un = u + du;
+            const int steps = std::max(std::abs(du), std::abs(dv));
+            if (steps < 2 || un < 0 || un >= width) continue;
+            const int r = segs.segment_of[vn * width + un];
+            if (r < 0 || r == k) continue;
+            bool open = true;
+            for (int t = 1; t < steps && open; ++t) {
+              const int ut = u + static_cast<int>(std::lround(static_cast<double>(du) * t / steps));
+              const int vt = v + static_cast<int>(std::lround(static_cast<double>(dv) * t / steps));
+              open = hm.atIndex(vt * width + ut) == HeightMap::kNoHeight;
+            }
+            if (open) addNeighbour(r, vn * width + un);
+          }
+        }
+      }
+      // Alg. 2 steps 14-19 for this cell against every neighbouring segment: the planes'
+      // heights at the cell's centre (000), or the local measured surface heights of the two
+      // segments at this cell and at a neighbouring cell of the other segment
+      // (SafetyLabellingConfig::measured_step_test).
       const double xc = (m.min_u + u) * l, yc = (m.min_v + v) * l;
       for (int j = 0; j < num_nb_seg; ++j) {
         const GroundPlane* pr = planeOf(nb_seg[j]);
         int ok = 0;
         if (ps != nullptr && pr != nullptr) {
-          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height;
+          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
+               nb_close[j];
         }
         contacts_.push_back(Contact{k, nb_seg[j], ok});
       }
@@ -259,6 +332,40 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     }
   }
 
+  if (config_.drop_off_margin) {
+    // SafetyLabellingConfig::drop_off_margin: border cells of safe segments beside an observed
+    // surface lower by more than the drop (local surface heights) are Non-ground. Heights are
+    // read, labels written, so the margin does not spread.
+    if (!measured) local_z_.assign(n, kLocalZPending);
+    const double drop = std::max(config_.max_step_height, config_.drop_off_min_drop);
+    margin_.clear();
+    for (int k = 0; k < nseg; ++k) {
+      if (!isSafe(m.segments[k].label)) continue;
+      for (const int c : m.segments[k].cells) {
+        if (!boundary_[c]) continue;
+        const float zc = localSurfaceHeight(hm, segs, c);
+        if (std::isnan(zc)) continue;
+        const int u = c % width, v = c / width;
+        for (int j = 0; j < 8; ++j) {
+          const int un = u + kDu[j], vn = v + kDv[j];
+          if (un < 0 || vn < 0 || un >= width || vn >= m.height) continue;
+          const int cn = vn * width + un;
+          if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
+          const float zn = segs.segment_of[cn] >= 0 ? localSurfaceHeight(hm, segs, cn)
+                                                    : hm.surfaceHeightAtIndex(cn);
+          if (zn < zc - drop) {  // NaN: false
+            margin_.push_back(c);
+            break;
+          }
+        }
+      }
+    }
+    for (const int c : margin_) {
+      m.labels[c] = SafetyLabel::kNonGround;
+      m.drop_off[c] = 0;
+    }
+  }
+
   if (!config_.mark_drop_offs) return true;
   // Potential drop-off edges (000, Sec. VI), see SafetyLabellingConfig.
   const double rr = config_.drop_off_radius / l;
@@ -268,7 +375,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     const SegmentInfo& info = m.segments[k];
     if (!isSafe(info.label)) continue;
     for (const int c : info.cells) {
-      if (!boundary_[c]) continue;
+      if (!boundary_[c] || !isSafe(m.labels[c])) continue;  // margin cells are Non-ground
       const int u = c % width, v = c / width;
       bool next_to_unknown = false;
       for (int j = 0; j < 8 && !next_to_unknown; ++j) {

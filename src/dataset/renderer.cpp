@@ -235,7 +235,9 @@ Eigen::Vector3f StereoRenderer::shade(const Ray& ray, const Hit& hit,
   // camera's pixel integration.
   const double fp = hit.t * dn * footprint_scale / std::sqrt(std::max(cos_inc, 0.05));
   const double t = evaluateTexture(m, u, v, fp);
-  Eigen::Vector3f albedo = m.colour * static_cast<float>(1.0 + m.contrast * t);
+  const double grain = m.effectiveGrain();
+  const double g = grain > 0.0 ? grain * evaluateGrain(m, u, v, fp) : 0.0;
+  Eigen::Vector3f albedo = m.colour * static_cast<float>(1.0 + m.contrast * t + g);
   albedo = albedo.cwiseMax(0.0f).cwiseMin(1.0f);
   const double lambert = std::max(0.0, -n.dot(scene_.lighting.direction));
   return albedo * static_cast<float>(scene_.lighting.ambient + scene_.lighting.diffuse * lambert);

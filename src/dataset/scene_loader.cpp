@@ -162,6 +162,8 @@ Material parseMaterial(const YAML::Node& node, const std::string& ctx, const std
   m.colour = f.colour("colour", m.colour);
   m.line_width = f.num("line_width", m.line_width);
   m.detail = f.num("detail", m.detail);
+  m.grain = f.num("grain", m.grain);
+  m.grain_size = f.num("grain_size", m.grain_size);
   m.angle_deg = f.num("angle_deg", m.angle_deg);
   m.seed = f.has("seed") ? static_cast<std::uint32_t>(f.integer("seed", 0)) : fnv1a(name);
   f.finish();

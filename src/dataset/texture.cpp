@@ -8,7 +8,9 @@ namespace dataset {
 
 namespace {
 
-constexpr int kOctaves = 6;
+// Octaves are added down to the pixel footprint (bandWeight() ends the sum there); this only caps
+// the loop: 24 halvings take a 1 km pattern below a millimetre.
+constexpr int kMaxOctaves = 24;
 
 inline std::uint32_t hash2(std::int64_t x, std::int64_t y, std::uint32_t seed) {
   std::uint32_t h = seed * 0x9E3779B9u;
@@ -79,7 +81,7 @@ double valueNoise(double u, double v, std::uint32_t seed) {
 
 double fractalNoise(double u, double v, double scale, double footprint, std::uint32_t seed) {
   double sum = 0.0, amp = 1.0, wl = scale;
-  for (int k = 0; k < kOctaves; ++k) {
+  for (int k = 0; k < kMaxOctaves; ++k) {
     const double w = bandWeight(wl, footprint);
     if (w <= 0.0) break;  // the remaining octaves are even finer
     // Offsets decorrelate the lattices of successive octaves.
@@ -142,6 +144,18 @@ double evaluateTexture(const Material& m, double u, double v, double footprint) 
     }
   }
   return 0.0;
+}
+
+double evaluateGrain(const Material& m, double u, double v, double footprint) {
+  const double fp = std::max(footprint, 1e-6);
+  double sum = 0.0, wl = m.grain_size;
+  for (int k = 0; k < 3; ++k) {
+    const double w = bandWeight(wl, fp);
+    if (w > 0.0) sum += w * noise2(u / wl + 3.7 * k, v / wl - 8.1 * k, m.seed + 7919u * (k + 1));
+    wl *= 2.0;
+  }
+  // Value noise has a standard deviation of about 0.3: scale three octaves to about 0.5.
+  return clamp11(0.95 * sum);
 }
 
 }  // namespace dataset

@@ -326,6 +326,8 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
   SafetyMapperConfig& m = c->mapper;
   DisparityPipelineConfig& dp = c->disparity;
   LandmarkStreamConfig& lf = c->landmark_filter;
+  // The disparity nodelet's texture_window_size 0 means "the block size" (config/disparity.yaml).
+  int texture_window = -1;
   std::map<std::string, std::function<void(const YAML::Node&)>> table = {
       {"voxel_size", [&](const YAML::Node& n) { m.grid.voxel_size = n.as<double>(); }},
       {"size_x", [&](const YAML::Node& n) { m.grid.size_x = n.as<double>(); }},
@@ -349,8 +351,17 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
        [&](const YAML::Node& n) { m.segmentation.height_tolerance = n.as<int>(); }},
       {"connectivity", [&](const YAML::Node& n) { m.segmentation.connectivity = n.as<int>(); }},
       {"seed_radius", [&](const YAML::Node& n) { m.segmentation.seed_radius = n.as<double>(); }},
+      {"segment_islands",
+       [&](const YAML::Node& n) { m.segmentation.segment_islands = n.as<bool>(); }},
+      {"island_max_span",
+       [&](const YAML::Node& n) { m.segmentation.island_max_span = n.as<int>(); }},
+      {"max_gap_cells", [&](const YAML::Node& n) { m.labelling.max_gap_cells = n.as<int>(); }},
       {"min_points", [&](const YAML::Node& n) { m.plane_fit.min_points = n.as<int>(); }},
       {"min_xy_stddev", [&](const YAML::Node& n) { m.plane_fit.min_xy_stddev = n.as<double>(); }},
+      {"plane_vertical_margin",
+       [&](const YAML::Node& n) { m.plane_fit.vertical_margin = n.as<int>(); }},
+      {"measured_step_test",
+       [&](const YAML::Node& n) { m.labelling.measured_step_test = n.as<bool>(); }},
       {"max_slope_deg", [&](const YAML::Node& n) { m.labelling.max_slope_deg = n.as<double>(); }},
       {"level_slope_deg",
        [&](const YAML::Node& n) { m.labelling.level_slope_deg = n.as<double>(); }},
@@ -406,15 +417,45 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
          dp.matcher =
              v == "bm" ? StereoMatcherType::kBlockMatching : StereoMatcherType::kSemiGlobal;
        }},
+      {"min_disparity", [&](const YAML::Node& n) { dp.min_disparity = n.as<int>(); }},
       {"num_disparities", [&](const YAML::Node& n) { dp.num_disparities = n.as<int>(); }},
       {"block_size", [&](const YAML::Node& n) { dp.block_size = n.as<int>(); }},
+      {"pre_filter_cap", [&](const YAML::Node& n) { dp.pre_filter_cap = n.as<int>(); }},
+      {"bm_texture_threshold", [&](const YAML::Node& n) { dp.bm_texture_threshold = n.as<int>(); }},
+      {"speckle_window_size", [&](const YAML::Node& n) { dp.speckle_window_size = n.as<int>(); }},
+      {"speckle_range", [&](const YAML::Node& n) { dp.speckle_range = n.as<int>(); }},
+      {"sgbm_p1", [&](const YAML::Node& n) { dp.sgbm_p1 = n.as<int>(); }},
+      {"sgbm_p2", [&](const YAML::Node& n) { dp.sgbm_p2 = n.as<int>(); }},
+      {"sgbm_three_way", [&](const YAML::Node& n) { dp.sgbm_three_way = n.as<bool>(); }},
       {"enable_uniqueness", [&](const YAML::Node& n) { dp.enable_uniqueness = n.as<bool>(); }},
+      {"uniqueness_ratio",
+       [&](const YAML::Node& n) { dp.uniqueness.uniqueness_ratio = n.as<int>(); }},
       {"enable_texture", [&](const YAML::Node& n) { dp.enable_texture = n.as<bool>(); }},
+      {"texture_log_sigma", [&](const YAML::Node& n) { dp.texture.log_sigma = n.as<double>(); }},
+      {"texture_window_size", [&](const YAML::Node& n) { texture_window = n.as<int>(); }},
+      {"texture_min_energy", [&](const YAML::Node& n) { dp.texture.min_energy = n.as<double>(); }},
       {"enable_left_right", [&](const YAML::Node& n) { dp.enable_left_right = n.as<bool>(); }},
+      {"left_right_max_difference",
+       [&](const YAML::Node& n) { dp.left_right.max_difference = n.as<double>(); }},
+      {"left_right_reject_if_right_invalid",
+       [&](const YAML::Node& n) { dp.left_right.reject_if_right_invalid = n.as<bool>(); }},
       {"enable_neighbour_consistency",
        [&](const YAML::Node& n) { dp.enable_neighbour_consistency = n.as<bool>(); }},
+      {"neighbour_window_radius",
+       [&](const YAML::Node& n) { dp.neighbour_consistency.window_radius = n.as<int>(); }},
+      {"neighbour_max_difference",
+       [&](const YAML::Node& n) { dp.neighbour_consistency.max_difference = n.as<double>(); }},
+      {"neighbour_min_agreeing_fraction",
+       [&](const YAML::Node&
+               n) { dp.neighbour_consistency.min_agreeing_fraction = n.as<double>(); }},
+      {"neighbour_remove_isolated",
+       [&](const YAML::Node& n) { dp.neighbour_consistency.remove_isolated = n.as<bool>(); }},
       {"enable_spike_removal",
        [&](const YAML::Node& n) { dp.enable_spike_removal = n.as<bool>(); }},
+      {"spike_max_difference",
+       [&](const YAML::Node& n) { dp.spike_removal.max_difference = n.as<double>(); }},
+      {"spike_min_region_size",
+       [&](const YAML::Node& n) { dp.spike_removal.min_region_size = n.as<int>(); }},
   };
   if (!root.IsMap()) return path + ": not a map of parameters";
   for (const auto& kv : root) {
@@ -430,6 +471,9 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
       return path + ": bad value for " + key + ": " + e.what();
     }
   }
+  if (texture_window > 0) dp.texture.window_size = texture_window;
+  if (texture_window == 0 || (texture_window < 0 && root["block_size"]))
+    dp.texture.window_size = dp.block_size;
   return c->validate();
 }
 

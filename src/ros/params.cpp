@@ -111,6 +111,8 @@ std::string fromRosParam(const ros::NodeHandle& pnh, GroundSegmentationConfig* c
   r.read("height_tolerance", &c->height_tolerance);
   r.read("connectivity", &c->connectivity);
   r.read("seed_radius", &c->seed_radius);
+  r.read("segment_islands", &c->segment_islands);
+  r.read("island_max_span", &c->island_max_span);
   return r.result(c->validate());
 }
 
@@ -118,6 +120,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, PlaneFitConfig* c) {
   Reader r(pnh);
   r.read("min_points", &c->min_points);
   r.read("min_xy_stddev", &c->min_xy_stddev);
+  r.read("plane_vertical_margin", &c->vertical_margin);
   return r.result(c->validate());
 }
 
@@ -129,6 +132,8 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyLabellingConfig* c) {
   r.read("max_step_height", &c->max_step_height);
   r.read("min_passage_cells", &c->min_passage_cells);
   r.read("level_slope_deg", &c->level_slope_deg);
+  r.read("max_gap_cells", &c->max_gap_cells);
+  r.read("measured_step_test", &c->measured_step_test);
   r.read("mark_drop_offs", &c->mark_drop_offs);
   r.read("drop_off_radius", &c->drop_off_radius);
   r.read("drop_off_min_drop", &c->drop_off_min_drop);
@@ -197,18 +202,22 @@ std::vector<std::string> safetyMapParameterNames() {
       // HeightMapConfig
       "robot_height",
       // GroundSegmentationConfig
-      "planning_radius", "height_tolerance", "connectivity", "seed_radius",
+      "planning_radius", "height_tolerance", "connectivity", "seed_radius", "segment_islands",
+      "island_max_span",
       // PlaneFitConfig
-      "min_points", "min_xy_stddev",
+      "min_points", "min_xy_stddev", "plane_vertical_margin",
       // SafetyLabellingConfig
       "max_slope_deg", "min_segment_cells", "thin_ratio", "max_step_height", "min_passage_cells",
-      "level_slope_deg", "mark_drop_offs", "drop_off_radius", "drop_off_min_drop",
+      "level_slope_deg", "max_gap_cells", "measured_step_test", "mark_drop_offs", "drop_off_radius",
+      "drop_off_min_drop",
       // SafetyMapperConfig
       "skip_stationary_frames", "stationary_translation", "stationary_rotation_deg",
       "scroll_with_robot",
       // SafetyMapRosConfig
       "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
       "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix",
+      // Obstacle cue (obstacle_params.h)
+      "obstacle_cue", "obstacle_cue_lifetime", "obstacle_cue_min_points",
       // diagnostic_updater's own
       "diagnostic_period"};
 }

@@ -70,6 +70,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     const std::string why = landmark_config_.validate();
     if (!why.empty()) err = "invalid parameter in " + pnh_.getNamespace() + ": landmark_" + why;
   }
+  if (err.empty()) err = fromRosParam(pnh_, &cue_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
@@ -112,6 +113,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   worker_ = std::thread(&SafetyMapRos::workerLoop, this);
   setUpInputs();
+  setUpObstacleCue();
   ROS_INFO_STREAM(name_ << ": building the safety map in '" << ros_config_.fixed_frame << "' from "
                         << (ros_config_.input == "cloud" ? "point clouds" : "disparity images")
                         << ", robot frame '" << ros_config_.base_frame << "'");
@@ -458,6 +460,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, &result);
     if (result.status == FrameStatus::kIntegrated) {
       robot_position_ = robot_position;
+      applyObstacleCue(stamp, robot_position);
       std_msgs::Header header;
       header.stamp = stamp;
       header.frame_id = ros_config_.fixed_frame;
@@ -786,6 +789,7 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     stat.add("landmark filter: frames without a confirmed point", landmark_frames_empty_);
     stat.addf("landmark filter: time, last [ms]", "%.1f", landmark_ms_last_);
   }
+  diagnoseObstacleCue(stat);
   for (const auto& r : rejections_)
     stat.add("problem: " + r.first, r.second);
   stat.add("last problem", last_problem_);
@@ -809,6 +813,95 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     window_start_ = now;
     window_received_ = window_processed_ = window_dropped_ = 0;
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Obstacle cue: ObstacleDetectionNodelet's obstacle points (paper 003, one frame) mark their cells
+// Non-ground in the next map, before the voxel grid has confirmed them (core/obstacle_cue.h).
+
+void SafetyMapRos::setUpObstacleCue() {
+  if (!cue_config_.enabled) return;
+  {
+    // The worker is running already: it reads obstacle_cue_ under cue_mutex_ as well.
+    std::lock_guard<std::mutex> lock(cue_mutex_);
+    obstacle_cue_ = std::make_unique<ObstacleCueFusion>(cue_config_.cue);  // validated
+  }
+  obstacle_cue_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>("obstacles", ros_config_.queue_size,
+                                                              &SafetyMapRos::obstacleCueCb, this);
+}
+
+void SafetyMapRos::obstacleCueCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
+  std::vector<Eigen::Vector3f> points;  // callbacks may run concurrently: a local buffer
+  CloudStats stats;
+  // An empty cloud is a frame without obstacles: a valid (empty) cue.
+  if (static_cast<std::size_t>(cloud->width) * cloud->height > 0) {
+    const std::string err = pointCloud2ToPoints(*cloud, &points, &stats);
+    if (!err.empty()) {
+      obstacleCueProblem("ignored an obstacle cue: " + err);
+      return;
+    }
+  }
+  if (cloud->header.frame_id != ros_config_.fixed_frame && !points.empty()) {
+    try {
+      const Eigen::Isometry3f T =
+          tf2::transformToEigen(tf_buffer_->lookupTransform(
+                                    ros_config_.fixed_frame, cloud->header.frame_id,
+                                    cloud->header.stamp, ros::Duration(ros_config_.tf_timeout)))
+              .cast<float>();
+      for (Eigen::Vector3f& p : points)
+        p = T * p;
+    } catch (const tf2::TransformException& e) {
+      obstacleCueProblem(std::string("ignored an obstacle cue: no tf to the fixed frame: ") +
+                         e.what());
+      return;
+    }
+  }
+  std::lock_guard<std::mutex> lock(cue_mutex_);
+  if (obstacle_cue_->addCue(cloud->header.stamp.toSec(), points)) ++cues_received_;
+}
+
+void SafetyMapRos::obstacleCueProblem(const std::string& detail) {
+  {
+    std::lock_guard<std::mutex> lock(cue_mutex_);
+    ++cues_refused_;
+  }
+  const ros::WallTime now = ros::WallTime::now();
+  bool log = false;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++rejections_["obstacle cue"];
+    last_problem_ = detail;
+    last_problem_time_ = now;
+    ros::WallTime& last = last_logged_["obstacle cue"];
+    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
+      last = now;
+      log = true;
+    }
+  }
+  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+}
+
+void SafetyMapRos::applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position) {
+  // Points above the robot's top are overhangs it passes under (000 Sec. V-A).
+  const float max_z =
+      robot_position.z() + static_cast<float>(mapper_config_.height_map.robot_height);
+  std::lock_guard<std::mutex> lock(cue_mutex_);
+  if (!obstacle_cue_) return;
+  cue_stats_ = obstacle_cue_->apply(stamp.toSec(), max_z, &mapper_->mutableSafetyMap());
+}
+
+void SafetyMapRos::diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(cue_mutex_);
+  if (!obstacle_cue_) {
+    stat.add("obstacle cue", "off");
+    return;
+  }
+  stat.add("obstacle cue", "on");
+  stat.add("obstacle cues received", cues_received_);
+  stat.add("obstacle cues refused", cues_refused_);
+  stat.add("obstacle cues live, last map", cue_stats_.live_cues);
+  stat.add("cells marked by the obstacle cue, last map", cue_stats_.cells_marked);
+  stat.add("cells made Non-ground by the cue, last map", cue_stats_.cells_changed);
 }
 
 }  // namespace stereo_safety_map

@@ -3,7 +3,7 @@
 //
 // A pinhole camera (f = 600 px) 1.1 m above a floor z = 0, pitched down 15 deg, as on the
 // wheelchair. Two scenes: "typical" is a floor with several obstacles (a pole, a box, a box
-// turned 45 deg, a person-sized cylinder, a 10 cm curb across the view; ~15 % of the pixels are
+// turned 45 deg, a person-sized cylinder, a 10 cm curb across the view; ~29 % of the valid pixels are
 // obstacle points); "dense" adds a ridge with a sideways slope and a wall across the view at 9 m
 // (~50 % obstacle points). Points farther than 10 m are missing (NaN), as with a stereo range
 // limit; "+ noise" adds spatially smooth range noise (sigma = 0.2 % of the range, correlated
@@ -16,6 +16,8 @@
 //   g++ -std=c++17 -O2 -Iinclude -I/usr/include/eigen3 -I/usr/include/opencv4
 //     src/core/obstacle_detection.cpp src/tools/bench_obstacle_detection.cpp -lopencv_core
 //     -lopencv_imgproc -o /tmp/bench_obstacle_detection && /tmp/bench_obstacle_detection [reps]
+//   [case]   (only the cases whose name contains `case`; a trailing $ anchors the end, e.g.
+//   "dense: detect$")
 #include "stereo_safety_map/core/obstacle_detection.h"
 
 #include <opencv2/imgproc.hpp>
@@ -25,6 +27,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <limits>
 #include <random>
@@ -202,8 +205,21 @@ std::pair<Timing, Timing> timeIt(int reps, F&& fn) {
   return {summary(wall), summary(cpu)};
 }
 
+const char* g_filter = nullptr;  // run only the cases whose name contains it ('$': ends with it)
+
+bool selected(const char* name) {
+  if (g_filter == nullptr) return true;
+  const std::size_t n = std::strlen(g_filter);
+  if (n > 0 && g_filter[n - 1] == '$') {
+    const std::size_t m = std::strlen(name);
+    return m >= n - 1 && std::strncmp(name + m - (n - 1), g_filter, n - 1) == 0;
+  }
+  return std::strstr(name, g_filter) != nullptr;
+}
+
 void run(const char* name, const cv::Mat& xyz, float f, const Eigen::Isometry3f& T,
          const ObstacleDetectionConfig& cfg, bool columnwise, int reps) {
+  if (!selected(name)) return;
   ObstacleDetector det(cfg);
   ObstacleDetectionResult res;
   auto call = [&] {
@@ -228,6 +244,7 @@ void run(const char* name, const cv::Mat& xyz, float f, const Eigen::Isometry3f&
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(1, std::atoi(argv[1])) : 50;
+  if (argc > 2) g_filter = argv[2];
   const int w = 640, h = 480;
   const float f = 600.0f;
   const Eigen::Isometry3f T = cameraPose();

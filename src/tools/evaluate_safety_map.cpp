@@ -95,7 +95,7 @@ struct Options {
   int images = 3;
   int plane_frames = 5;
   unsigned seed = 1;
-  std::string params;
+  std::vector<std::string> params;
   std::vector<std::string> sets;
   std::string recorded;
   std::string fixed_frame = "odom";
@@ -103,6 +103,7 @@ struct Options {
   std::string camera = "stereo";
   bool model = true;
   bool quiet = false;
+  int dump_frame = -1;  // print the segments of this stereo pair's map (first dataset, first decr)
 };
 
 void usage() {
@@ -122,8 +123,11 @@ void usage() {
       "  --images N     safety map / GT / error PNGs of N frames per dataset (0 = none)\n"
       "  --plane-frames frames per dataset drawn at random (--seed) for plane accuracy (000 "
       "VII-C)\n"
-      "  --params       YAML with the nodelet's flat parameters (config/safety_map.yaml)\n"
+      "  --params       YAML with the nodelets' flat parameters (config/safety_map.yaml,\n"
+      "                 config/disparity.yaml); may be given more than once\n"
       "  --set k=v      one parameter (after --params), e.g. --set matcher=sgbm\n"
+      "  --dump-frame N print the segments (label, size, height, plane, reachability) of pair N's\n"
+      "                 map with the first --decr (debugging)\n"
       "  --recorded     evaluate SafetyMap messages recorded from the nodelets instead of running\n"
       "                 the core (one --bag: the dataset the recording was made from)\n");
 }
@@ -166,7 +170,7 @@ bool parseArgs(int argc, char** argv, Options* o) {
     } else if (a == "--seed" && (v = next())) {
       o->seed = static_cast<unsigned>(std::strtoul(v, nullptr, 10));
     } else if (a == "--params" && (v = next())) {
-      o->params = v;
+      o->params.push_back(v);
     } else if (a == "--set" && (v = next())) {
       o->sets.push_back(v);
     } else if (a == "--recorded" && (v = next())) {
@@ -181,6 +185,8 @@ bool parseArgs(int argc, char** argv, Options* o) {
       o->model = false;
     } else if (a == "--quiet") {
       o->quiet = true;
+    } else if (a == "--dump-frame" && (v = next())) {
+      o->dump_frame = std::atoi(v);
     } else {
       std::fprintf(stderr, "bad or incomplete argument: %s\n", a.c_str());
       return false;
@@ -468,6 +474,41 @@ void evaluateFrameMap(const ssm::Dataset& ds, const ssm::SafetyMap& map, int fra
   }
 }
 
+// --dump-frame: one line per segment of a map, and what the cells of each label are in the GT.
+void dumpSegments(const ssm::Dataset& ds, const ssm::SafetyMap& map, int frame) {
+  std::printf("%s pair %d: %zu segments, robot segment %d, robot cell (%d, %d)\n", ds.name.c_str(),
+              frame, map.segments.size(), map.robot_segment, map.robot_u, map.robot_v);
+  std::printf(
+      "  id label      cells int bnd   w island reach slope_deg  rms_cm points  "
+      "x_mean y_mean  gt: level incl nonground unknown\n");
+  for (const ssm::SegmentInfo& s : map.segments) {
+    int gt[5] = {0, 0, 0, 0, 0};
+    double sx = 0.0, sy = 0.0;
+    for (int c : s.cells) {
+      const int u = map.min_u + c % map.width, v = map.min_v + c / map.width;
+      ++gt[static_cast<int>(ds.gt.at(u, v))];
+      sx += u * map.resolution;
+      sy += v * map.resolution;
+    }
+    if (ssm::isSafe(s.label) && gt[4] > 0) {
+      std::printf("  segment %d: safe cells the GT calls Non-ground (x, y):", s.id);
+      for (int c : s.cells) {
+        const int u = map.min_u + c % map.width, v = map.min_v + c / map.width;
+        if (ds.gt.at(u, v) == SafetyLabel::kNonGround)
+          std::printf(" (%.1f, %.1f)", u * map.resolution, v * map.resolution);
+      }
+      std::printf("\n");
+    }
+    const double n = std::max<std::size_t>(1, s.cells.size());
+    std::printf(
+        "  %2d %-10s %5zu %3d %3d %3d %6s %5s %9.2f %7.2f %6zu %7.2f %6.2f      %5d %4d %9d %7d\n",
+        s.id, ssm::toString(s.label), s.cells.size(), s.num_interior, s.num_boundary,
+        s.indexed_height, s.island ? "yes" : "no", s.reachable ? "yes" : "no",
+        s.plane.valid ? s.plane.slope_deg : kNaN, s.plane.valid ? 100 * s.plane.residual_rms : kNaN,
+        s.plane.num_points, sx / n, sy / n, gt[2], gt[3], gt[4], gt[1]);
+  }
+}
+
 std::vector<int> chooseFrames(int total, int count, unsigned seed) {
   std::vector<int> all(total);
   std::iota(all.begin(), all.end(), 0);
@@ -622,6 +663,7 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
           evaluateFrameMap(ds, map, pair_index, rec.stamp, protocol_frame && !ds.latency_only, &rec,
                            &res, &outcomes);
           if (protocol_frame) res.protocol_frames.push_back(pair_index);
+          if (pair_index == opt.dump_frame && i == 0) dumpSegments(ds, map, pair_index);
           const double disparity_ms =
               i == 0 ? fr.timings.disparity_ms : slots[0].result->frames.back().ms[0];
           const double values[kStages] = {
@@ -1146,7 +1188,10 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
        config.disparity.matcher == ssm::StereoMatcherType::kBlockMatching ? "BM" : "SGBM");
   j.kv("texture_filter", config.disparity.enable_texture);
   j.kv("plane_frames", opt.plane_frames).kv("seed", static_cast<int>(opt.seed));
-  j.kv("params_file", opt.params);
+  j.key("params_files").open('[');
+  for (const std::string& p : opt.params)
+    j.val(p);
+  j.close(']');
   j.key("set").open('[');
   for (const std::string& a : opt.sets)
     j.val(a);
@@ -1426,8 +1471,8 @@ int main(int argc, char** argv) {
     command += std::string(" ") + argv[i];
 
   ssm::StereoFrameProcessorConfig config;
-  if (!opt.params.empty()) {
-    const std::string e = ssm::loadCoreParams(opt.params, &config);
+  for (const std::string& p : opt.params) {
+    const std::string e = ssm::loadCoreParams(p, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;

@@ -425,6 +425,51 @@ TEST(BoardCoverage, CountsWidthSamplesWithOccupiedVoxelsOnTheBoard) {
   EXPECT_EQ(boardWidthCoverage(g, b).covered, 10);
 }
 
+TEST(BoardCoverage, BinsOfTheGridAndOfMarkedCellsCombine) {
+  VoxelGrid g = gridAroundOrigin();
+  // Shifted by 2 cm so that no sample lies on a cell border: samples at y = -0.43 + 0.1 k.
+  BoardBox b = boardAt3m();
+  b.center.y() = 0.02;
+  for (int v = -5; v <= -1; ++v)  // voxels centred at y = -0.5 .. -0.1: samples -0.43 .. -0.13
+    occupy(&g, 30, v, 5);
+  std::vector<std::uint8_t> bins;
+  EXPECT_EQ(boardWidthCoverage(g, b, &bins).covered, 4);
+  ASSERT_EQ(bins.size(), 10u);
+  EXPECT_EQ(std::count(bins.begin(), bins.end(), 1), 4);
+  EXPECT_EQ(bins[0], 1);
+  EXPECT_EQ(bins[4], 0);
+
+  // A 2D map over u 20..39, v -10..9. Marked: (30, 3) holds the sample y = 0.27, (31, 4) lies
+  // one cell behind the face (x = 3.1, within the slack) and holds y = 0.37, (30, 5) y = 0.47.
+  SafetyMap m;
+  m.min_u = 20;
+  m.min_v = -10;
+  m.width = 20;
+  m.height = 20;
+  m.resolution = 0.1;
+  m.labels.assign(400, SafetyLabel::kLevel);
+  std::vector<std::uint8_t> marked(400, 0);
+  marked[m.index(30, 3)] = 1;
+  marked[m.index(31, 4)] = 1;
+  marked[m.index(30, 5)] = 1;
+  std::vector<std::uint8_t> cells_only;
+  const BoardCoverage c = boardWidthCoverageOfCells(m, marked, b, &cells_only);
+  EXPECT_EQ(c.bins, 10);
+  EXPECT_EQ(c.covered, 3);
+  ASSERT_EQ(cells_only.size(), 10u);
+  EXPECT_EQ(cells_only[7], 1);
+  EXPECT_EQ(cells_only[8], 1);
+  EXPECT_EQ(cells_only[9], 1);
+  // OR-ed into the grid's bins: 4 + 3.
+  boardWidthCoverageOfCells(m, marked, b, &bins);
+  EXPECT_EQ(std::count(bins.begin(), bins.end(), 1), 7);
+  // A cell two cells in front of the face is beyond the slack; a wrong-sized mask gives nothing.
+  std::vector<std::uint8_t> far(400, 0);
+  far[m.index(28, 0)] = 1;
+  EXPECT_EQ(boardWidthCoverageOfCells(m, far, b).covered, 0);
+  EXPECT_EQ(boardWidthCoverageOfCells(m, std::vector<std::uint8_t>(3, 1), b).bins, 0);
+}
+
 TEST(BoardCoverage, RotatedBoard) {
   VoxelGrid g = gridAroundOrigin();
   BoardBox b;

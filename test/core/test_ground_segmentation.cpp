@@ -12,6 +12,13 @@ namespace {
 
 constexpr double kLv = 0.1;
 
+// 000's Alg. 1 alone (no island segments): the tests below check the paper's behaviour.
+GroundSegmentationConfig paperConfig() {
+  GroundSegmentationConfig c;
+  c.segment_islands = false;
+  return c;
+}
+
 // Height map from text: row i is v = i, column j is u = j; '.' no height, '0'-'9' heights 0..9,
 // 'a'-'i' heights -1..-9.
 HeightMap fromText(const std::vector<std::string>& rows) {
@@ -76,13 +83,16 @@ TEST(GroundSegmentationConfig, Validate) {
   c.height_tolerance = -1;
   EXPECT_NE(c.validate().find("height_tolerance"), std::string::npos);
   c = GroundSegmentationConfig();
+  c.island_max_span = -1;
+  EXPECT_NE(c.validate().find("island_max_span"), std::string::npos);
+  c = GroundSegmentationConfig();
   c.seed_radius = std::numeric_limits<double>::infinity();
   EXPECT_NE(c.validate().find("seed_radius"), std::string::npos);
 }
 
 TEST(GroundSegmentation, FlatFloorIsOneSegment) {
   const HeightMap hm = flat(-10, -10, 21, 21, 0);
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -95,7 +105,7 @@ TEST(GroundSegmentation, FlatFloorIsOneSegment) {
 
 TEST(GroundSegmentation, PlanningRadiusLimitsTheExaminedCells) {
   const HeightMap hm = flat(-50, -50, 101, 101, 0);
-  GroundSegmentation seg;  // R_max = 4 m = 40 cells
+  GroundSegmentation seg(paperConfig());  // R_max = 4 m = 40 cells
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -124,7 +134,7 @@ TEST(GroundSegmentation, StepOfOneStartsANewSegmentAndLargerStepsAreNonTraversab
       "0000111122",
       "0000111122",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{1, 1, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -152,7 +162,7 @@ TEST(GroundSegmentation, StepOfOneStartsANewSegmentAndLargerStepsAreNonTraversab
 
 TEST(GroundSegmentation, ToleranceZeroKeepsOnlyTheRobotsHeight) {
   const HeightMap hm = fromText({"0011", "0011"});
-  GroundSegmentationConfig c;
+  GroundSegmentationConfig c = paperConfig();
   c.height_tolerance = 0;
   GroundSegmentation seg(c);
   GroundSegments s;
@@ -170,7 +180,7 @@ TEST(GroundSegmentation, BoxIsNonTraversableAndFloorAroundItOneSegment) {
       "00000000",
       "00000000",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -191,7 +201,7 @@ TEST(GroundSegmentation, EnclosedFloorIsUnreachable) {
       "005555500",
       "000000000",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -205,7 +215,7 @@ TEST(GroundSegmentation, UnobservedCellsSeparateSegments) {
       "000..000",
       "000..000",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   ASSERT_EQ(s.numSegments(), 1);
@@ -221,12 +231,12 @@ TEST(GroundSegmentation, ConnectivityFourVersusEight) {
       "55500",
       "55500",
   });
-  GroundSegmentation eight;
+  GroundSegmentation eight(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(eight.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   ASSERT_EQ(s.numSegments(), 1);
   EXPECT_EQ(s.segmentSize(0), 10);
-  GroundSegmentationConfig c;
+  GroundSegmentationConfig c = paperConfig();
   c.connectivity = 4;
   GroundSegmentation four(c);
   ASSERT_TRUE(four.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
@@ -244,7 +254,7 @@ TEST(GroundSegmentation, EqualHeightsAlwaysShareASegment) {
       "1000001",
       "1111111",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{3, 1, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -265,7 +275,7 @@ TEST(GroundSegmentation, SeedRuleWhenTheRobotsCellIsUnobserved) {
       "..........",
       "0000000000",
   });
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{4, 3, 0}, kLv, &s));
   expectConsistent(hm, s);
@@ -291,7 +301,7 @@ TEST(GroundSegmentation, NoSeedWithinTheSeedRadiusMeansNoSegments) {
   for (int v = -12; v <= 12; ++v)
     for (int u = -12; u <= 12; ++u)
       hm.set(u, v, HeightMap::kNoHeight);  // 1.2 m blind area
-  GroundSegmentation seg;                  // seed radius 1 m
+  GroundSegmentation seg(paperConfig());   // seed radius 1 m
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
   EXPECT_EQ(s.numSegments(), 0);
@@ -302,7 +312,7 @@ TEST(GroundSegmentation, NoSeedWithinTheSeedRadiusMeansNoSegments) {
     examined_with_height += s.examined[c] && hm.atIndex(c) != HeightMap::kNoHeight;
   EXPECT_EQ(static_cast<int>(s.non_traversable.size()), examined_with_height);
 
-  GroundSegmentationConfig c;
+  GroundSegmentationConfig c = paperConfig();
   c.seed_radius = 1.5;
   GroundSegmentation wide(c);
   ASSERT_TRUE(wide.segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
@@ -318,7 +328,7 @@ TEST(GroundSegmentation, NoSeedWithinTheSeedRadiusMeansNoSegments) {
 
 TEST(GroundSegmentation, RobotOutsideTheWindowAndBadInput) {
   const HeightMap hm = flat(0, 0, 10, 10, 0);
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{1000, -1000, 0}, kLv, &s));
   EXPECT_EQ(s.numSegments(), 0);
@@ -349,7 +359,7 @@ TEST(GroundSegmentation, RobotOutsideTheWindowAndBadInput) {
 TEST(GroundSegmentation, BuffersAreReusedAcrossCalls) {
   const HeightMap a = fromText({"0000", "0011", "0011"});
   const HeightMap b = flat(0, 0, 4, 3, 0);
-  GroundSegmentation seg;
+  GroundSegmentation seg(paperConfig());
   GroundSegments s;
   ASSERT_TRUE(seg.segment(a, VoxelIndex{0, 0, 0}, kLv, &s));
   EXPECT_EQ(s.numSegments(), 2);
@@ -357,6 +367,81 @@ TEST(GroundSegmentation, BuffersAreReusedAcrossCalls) {
   expectConsistent(b, s);
   EXPECT_EQ(s.numSegments(), 1);
   EXPECT_EQ(s.segmentSize(0), 12);
+}
+
+// ---- Island segments (ours, GroundSegmentationConfig::segment_islands).
+
+GroundSegmentationConfig islandConfig() {
+  GroundSegmentationConfig c;
+  c.segment_islands = true;
+  return c;
+}
+
+TEST(GroundSegmentation, IslandsBecomeSegmentsInsteadOfNonTraversableColumns) {
+  const HeightMap hm = fromText({
+      "000..000",
+      "000..000",
+      "000..000",
+  });
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation(paperConfig()).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  EXPECT_EQ(s.non_traversable.size(), 9u);  // 000: the far floor is non-traversable
+  ASSERT_TRUE(GroundSegmentation(islandConfig()).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 2);
+  EXPECT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_island[0], 0);
+  EXPECT_EQ(s.segment_island[1], 1);
+  EXPECT_EQ(s.segmentSize(1), 9);
+  EXPECT_TRUE(s.non_traversable.empty());
+}
+
+TEST(GroundSegmentation, ColumnsAlg1ComparedAndLeftOutStayNonTraversable) {
+  // A box (height 5) beside the robot's floor, and an island floor beyond it. The box columns
+  // Alg. 1 compared with the floor stay non-traversable; the one it never reached, (4, 0) (the
+  // box's unseen-around top), becomes a one-cell island (Alg. 2: small, Unknown).
+  const HeightMap hm = fromText({
+      "00055..00",
+      "00055..00",
+      "00000....",
+  });
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation(islandConfig()).segment(hm, VoxelIndex{0, 0, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  EXPECT_EQ(s.segment_of[s.index(3, 0)], -1);
+  EXPECT_EQ(s.segment_of[s.index(3, 1)], -1);
+  EXPECT_EQ(s.segment_of[s.index(4, 1)], -1);
+  EXPECT_EQ(s.non_traversable.size(), 3u);
+  const int top = s.segment_of[s.index(4, 0)];
+  ASSERT_GE(top, 1);
+  EXPECT_EQ(s.segmentSize(top), 1);  // did not absorb the locked (4, 1)
+  EXPECT_GE(s.segment_of[s.index(7, 0)], 1);
+}
+
+TEST(GroundSegmentation, ObstacleLikeColumnsDoNotSeedIslands) {
+  // A pole seen without the floor around it: its column's occupied voxels span 14 voxels, so
+  // it is the face of an obstacle, not ground, and stays non-traversable (Non-ground).
+  HeightMap hm = fromText({
+      "000.......",
+      "000.......",
+      "000.......",
+  });
+  hm.set(7, 1, 14, 0);  // the pole: top at 14, lowest occupied voxel at 0
+  hm.set(8, 1, 0, 0);   // a floor column beside it...
+  hm.set(9, 1, 1, 0);   // ...and one spanning one voxel (noise): still ground-like
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation(islandConfig()).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  EXPECT_EQ(s.segment_of[s.index(7, 1)], -1);
+  ASSERT_EQ(s.non_traversable.size(), 1u);
+  EXPECT_EQ(s.non_traversable[0], s.index(7, 1));
+  EXPECT_GE(s.segment_of[s.index(8, 1)], 1);
+  EXPECT_GE(s.segment_of[s.index(9, 1)], 1);
+  GroundSegmentationConfig c = islandConfig();
+  c.island_max_span = 0;
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
+  EXPECT_EQ(s.segment_of[s.index(9, 1)], -1);
 }
 
 }  // namespace

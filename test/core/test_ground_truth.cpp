@@ -365,15 +365,15 @@ TEST(SceneLoader, MaterialsTrajectoryVariantsAndRepeat) {
 TEST(BenchmarkScenes, LoadAndHaveSaneGroundTruth) {
   // <repo>/test/core/this_file.cpp -> <repo>/scenes (a relative __FILE__ means the build ran
   // from the repository root).
-#ifdef SSM_SOURCE_DIR
-  // Set by CMake: __FILE__ may be relative to the build folder (ccache's base_dir).
-  std::string root = SSM_SOURCE_DIR;
-#else
   auto parent = [](const std::string& p) {
     const std::size_t k = p.rfind('/');
     return k == std::string::npos ? std::string() : p.substr(0, k);
   };
   std::string root = parent(parent(parent(__FILE__)));
+#ifdef SSM_SOURCE_DIR
+  // CMake's absolute source path: with ccache's CCACHE_BASEDIR (scripts/lib/common.sh) __FILE__
+  // is relative to the build folder, not to where the test runs.
+  root = SSM_SOURCE_DIR;
 #endif
   if (root.empty()) root = ".";
   const std::string dir = root + "/scenes";

@@ -109,6 +109,39 @@ TEST(HeightMap, NonFiniteBaseGivesNoHeights) {
   EXPECT_EQ(hm.at(0, 0), 0);
 }
 
+TEST(HeightMap, LowestOccupiedVoxelAndMeasuredSurfaceHeight) {
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  // Points at z = 0.03 in column (1, 1), seen from a camera 2 m above; a second occupied voxel
+  // at w = 4 above them (the face of an obstacle).
+  const Eigen::Isometry3f T(Eigen::Translation3f(0.1f, 0.1f, 2.0f));
+  std::vector<Eigen::Vector3f> one(1);
+  for (int i = 0; i < 12; ++i) {
+    one[0] = Eigen::Vector3f(0.08f + 0.003f * i, 0.1f, 0.03f) - T.translation();
+    g.integrate(one, T);
+  }
+  ASSERT_TRUE(g.isOccupied({1, 1, 0}));
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  const int c = hm.index(1, 1);
+  EXPECT_EQ(hm.atIndex(c), 0);
+  EXPECT_EQ(hm.lowestAtIndex(c), 0);
+  EXPECT_NEAR(hm.surfaceHeightAtIndex(c), 0.03f, 1e-5f);
+  occupy(&g, 1, 1, 4);
+  occupy(&g, 1, 1, -2);
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.atIndex(c), 4);
+  EXPECT_EQ(hm.lowestAtIndex(c), -2);
+  EXPECT_TRUE(std::isnan(hm.surfaceHeightAtIndex(c)));  // the top voxel holds no points
+  EXPECT_TRUE(std::isnan(hm.surfaceHeightAtIndex(hm.index(5, 5))));
+  hm.set(5, 5, 2, 1);
+  EXPECT_EQ(hm.lowestAt(5, 5), 1);
+  hm.setSurfaceHeight(5, 5, 0.2f);
+  EXPECT_FLOAT_EQ(hm.surfaceHeightAtIndex(hm.index(5, 5)), 0.2f);
+  hm.set(5, 5, HeightMap::kNoHeight);
+  EXPECT_TRUE(std::isnan(hm.surfaceHeightAtIndex(hm.index(5, 5))));
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

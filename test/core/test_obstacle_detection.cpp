@@ -407,6 +407,15 @@ TEST(ObstacleDetection, RampBelowThetaTIsNotAnObstacle) {
   const Rendered steep = render({floorShape(), ramp(2.0f, deg(60.0f), 0.5f)}, cam);
   const ObstacleDetectionResult res2 = detect(steep, cam);
   EXPECT_GT(countMasked(res2.mask, shapePixelsAbove(steep, cam, 1, 0.06f)), 500);
+
+  // Heights come from the pose (gravity), not from the camera's y axis: seen by a camera pitched
+  // down 35 deg and rolled 15 deg, the 20 deg ramp rises more than 45 deg along the image's
+  // vertical, and is still no obstacle.
+  const Camera tilted = makeCamera(320, 240, 300.0f, 1.1f, 35.0f, 15.0f);
+  const Rendered seen = render({floorShape(), ramp(2.0f, deg(20.0f), 0.5f)}, tilted);
+  ASSERT_GT(seen.count(1), 10000);
+  EXPECT_EQ(cv::countNonZero(detect(seen, tilted).mask), 0);
+  EXPECT_EQ(cv::countNonZero(detect(seen, tilted, ObstacleDetectionConfig(), true).mask), 0);
 }
 
 TEST(ObstacleDetection, StepBelowHTIsNotAnObstacleButACurbIs) {
@@ -474,6 +483,36 @@ TEST(ObstacleDetection, ObjectsTouchingInTheImageButApartIn3DGetTwoLabels) {
   const int cn = dominantLabel(col, near_px), cf = dominantLabel(col, far_px);
   ASSERT_GT(cn, 0);
   EXPECT_EQ(cn, cf);
+}
+
+TEST(ObstacleDetection, PoleBesideAFarWallInTheImageGetsItsOwnLabel) {
+  // A pole 2.5 m away in front of a wall at 4.5 m: in the image the pole's raised pixels are
+  // side by side with the wall's (003 Fig. 6), but no pair of them is compatible (1.9 m apart),
+  // so the surface links of the early-exit search must not join them across the depth gap.
+  const Camera cam = makeCamera();
+  const Rendered img = render(
+      {floorShape(), pole(2.5f, 0.0f, 0.06f, 1.0f), box({4.6f, 0, 0.5f}, {0.1f, 20.0f, 0.5f})},
+      cam);
+  const cv::Mat pole_px = shapePixelsAbove(img, cam, 1, 0.06f);
+  const cv::Mat wall_px = shapePixelsAbove(img, cam, 2, 0.06f);
+  ASSERT_GT(cv::countNonZero(pole_px), 500);
+  ASSERT_GT(cv::countNonZero(wall_px), 5000);
+  cv::Mat grown;
+  cv::dilate(pole_px, grown, cv::Mat::ones(3, 3, CV_8U));
+  ASSERT_GT(cv::countNonZero(grown & wall_px), 50);  // side by side in the image
+
+  for (bool exhaustive : {false, true}) {
+    ObstacleDetectionConfig cfg;
+    cfg.exhaustive_search = exhaustive;
+    const ObstacleDetectionResult res = detect(img, cam, cfg);
+    const int lp = dominantLabel(res, pole_px), lw = dominantLabel(res, wall_px);
+    ASSERT_GT(lp, 0);
+    ASSERT_GT(lw, 0);
+    EXPECT_NE(lp, lw) << "exhaustive " << exhaustive;
+    EXPECT_EQ(labelsOn(res, pole_px).size(), 1u) << "exhaustive " << exhaustive;
+    EXPECT_EQ(res.num_accepted, 2) << "exhaustive " << exhaustive;
+    EXPECT_NEAR(res.obstacles[lp - 1].max_height, 1.0f, 0.02f);
+  }
 }
 
 TEST(ObstacleDetection, SmallFalseBlobsAreRejectedByTheRules) {
@@ -625,6 +664,19 @@ TEST(ObstacleDetection, MissingAndNonFinitePointsAreSkipped) {
   EXPECT_EQ(cv::countNonZero(none.mask), 0);
   EXPECT_TRUE(none.obstacles.empty());
   EXPECT_EQ(none.mask.size(), all_nan.size());
+}
+
+TEST(ObstacleDetection, FocalLengthIsEstimatedFromTheOrganisedImage) {
+  const Camera cam = makeCamera(320, 240, 275.0f);
+  Rendered img = render({floorShape(), pole(2.5f, 0.3f, 0.05f, 1.0f)}, cam);
+  EXPECT_NEAR(ssm::estimateFocalLength(img.xyz), 275.0, 0.5);
+  // Holes do not matter; too little data gives 0.
+  for (int v = 0; v < 240; v += 3)
+    img.xyz.row(v).setTo(cv::Scalar(kNaN, kNaN, kNaN));
+  EXPECT_NEAR(ssm::estimateFocalLength(img.xyz), 275.0, 0.5);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat(240, 320, CV_32FC3, cv::Scalar(kNaN, 0, 0))), 0.0);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat()), 0.0);
+  EXPECT_EQ(ssm::estimateFocalLength(cv::Mat(10, 10, CV_32FC1)), 0.0);
 }
 
 TEST(ObstacleDetection, BadInputIsRejectedWithoutCrashing) {
@@ -791,8 +843,9 @@ TEST(ObstacleDetection, SampledSearchMarksASubsetOfTheFullOne) {
 // pitched camera: the exhaustive search must find exactly Definition 1's pairs, so the search
 // window of Sec. 4.1 and the tile pruning lose nothing. Pairs within 1e-4 of a threshold may
 // go either way (float rounding).
-void checkAgainstBruteForce(bool columnwise, bool exhaustive) {
-  const Camera cam = makeCamera(96, 72, 90.0f, 1.1f, 22.0f, 8.0f);
+void checkAgainstBruteForce(bool columnwise, bool exhaustive, float pitch_deg = 22.0f,
+                            float roll_deg = 8.0f, double slope_threshold_deg = 45.0) {
+  const Camera cam = makeCamera(96, 72, 90.0f, 1.1f, pitch_deg, roll_deg);
   const float s60 = std::tan(deg(60.0f));
   Shape ridge;
   ridge.planes = {{Eigen::Vector3f(0, 1, 1.0f / s60), -0.45f},
@@ -808,6 +861,7 @@ void checkAgainstBruteForce(bool columnwise, bool exhaustive) {
   cfg.sample_spacing = 0.0;
   cfg.max_candidates_per_pixel = 0;
   cfg.exhaustive_search = exhaustive;
+  cfg.slope_threshold_deg = slope_threshold_deg;
   // Without surface links the early-exit labels come from compatible pairs only.
   cfg.surface_link_distance = 0.0;
   const ObstacleDetectionResult res = detect(img, cam, cfg, columnwise);
@@ -892,6 +946,14 @@ void checkAgainstBruteForce(bool columnwise, bool exhaustive) {
 
 TEST(ObstacleDetection, ExhaustiveSearchEqualsBruteForceDefinition1) {
   checkAgainstBruteForce(false, true);
+}
+
+TEST(ObstacleDetection, SearchWindowFollowsAStronglyTiltedCamera) {
+  // 003 Sec. 4.1: with the camera rolled, the vertical runs diagonally across the image, and with
+  // a steep theta_T the double cone is a thin vertical spike: a window laid out for a level
+  // camera (height H_max f / Z straight up, narrow sideways) misses pairs that this one finds.
+  checkAgainstBruteForce(false, true, 35.0f, 35.0f, 70.0);
+  checkAgainstBruteForce(false, false, 35.0f, 35.0f, 70.0);
 }
 
 TEST(ObstacleDetection, EarlyExitSearchMarksEqualBruteForceDefinition1) {

@@ -1,4 +1,5 @@
 // Least-squares plane fit (000, Sec. V-B).
+#include "stereo_safety_map/core/ground_segmentation.h"
 #include "stereo_safety_map/core/plane_fit.h"
 
 #include <gtest/gtest.h>
@@ -36,6 +37,9 @@ TEST(PlaneFitConfig, Validate) {
   c = PlaneFitConfig();
   c.min_xy_stddev = 0.0;
   EXPECT_NE(c.validate().find("min_xy_stddev"), std::string::npos);
+  c = PlaneFitConfig();
+  c.vertical_margin = 4;
+  EXPECT_NE(c.validate().find("vertical_margin"), std::string::npos);
 }
 
 TEST(PlaneFit, ExactPlane) {
@@ -221,6 +225,53 @@ TEST_F(PlaneFitterGrid, UsesOnlyThePointsAtTheSegmentsIndexedHeight) {
   EXPECT_FALSE(fitter.fitSegment(*grid_, s, 1).valid);
   EXPECT_FALSE(fitter.fitSegment(*grid_, s, -1).valid);
   fitter.fitAll(*grid_, s, nullptr);  // no crash
+}
+
+// A noisy 6 deg ramp integrated into a grid: its band at indexed height 1 (z 0.05..0.15) cuts
+// the noise off at its top and bottom, which flattens the band's least-squares slope; the
+// points that spilled into the layers above and below restore it (vertical_margin).
+TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
+  VoxelGridConfig gc;
+  gc.size_x = gc.size_y = 4.0;
+  VoxelGrid grid(gc);
+  grid.recenter(Eigen::Vector3f::Zero());
+  const double slope = std::tan(6.0 * M_PI / 180.0);
+  const Eigen::Isometry3f T(Eigen::Translation3f(0.0f, 0.0f, 2.0f));
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.0f, 0.03f);
+  std::vector<Eigen::Vector3f> one(1);
+  for (int rep = 0; rep < 12; ++rep)
+    for (int i = 0; i < 60; ++i)
+      for (int j = 0; j < 20; ++j) {
+        const float x = 0.0f + 0.025f * i + 0.004f * rep, y = -0.25f + 0.025f * j;
+        one[0] =
+            Eigen::Vector3f(x, y, static_cast<float>(slope * x) + noise(rng)) - T.translation();
+        grid.integrate(one, T);
+      }
+  HeightMap hm;
+  hm.reset(-20, -20, 40, 40);
+  // The band of indexed height 1: x where the ramp is at 0.05..0.15 m.
+  for (int u = 0; u < 20; ++u) {
+    const double z = slope * u * 0.1;
+    if (z < 0.05 || z >= 0.15) continue;
+    for (int v = -2; v <= 2; ++v)
+      hm.set(u, v, 1);
+  }
+  GroundSegmentationConfig sc;
+  sc.segment_islands = true;
+  sc.seed_radius = 0.0;
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation(sc).segment(hm, VoxelIndex{-10, 0, 0}, 0.1, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  PlaneFitConfig band_only;
+  band_only.vertical_margin = 0;
+  const GroundPlane p0 = PlaneFitter(band_only).fitSegment(grid, s, 0);
+  const GroundPlane p1 = PlaneFitter().fitSegment(grid, s, 0);
+  ASSERT_TRUE(p0.valid);
+  ASSERT_TRUE(p1.valid);
+  EXPECT_GT(std::abs(p0.slope_deg - 6.0), 1.0);  // flattened
+  EXPECT_LT(std::abs(p1.slope_deg - 6.0), 0.7);
+  EXPECT_GT(p1.num_points, p0.num_points);
 }
 
 TEST_F(PlaneFitterGrid, SegmentWithoutPointsIsInvalid) {

@@ -47,6 +47,21 @@ GroundPlane inclined(double deg, double x0, double z0) {
   return p;
 }
 
+// 000's Alg. 1 and Alg. 2 alone (no island segments, no neighbours across gaps, plane step test
+// only): most tests below
+// check the paper's behaviour.
+GroundSegmentationConfig paperSegmentation() {
+  GroundSegmentationConfig c;
+  c.segment_islands = false;
+  return c;
+}
+SafetyLabellingConfig paperLabelling() {
+  SafetyLabellingConfig c;
+  c.max_gap_cells = 0;
+  c.measured_step_test = false;
+  return c;
+}
+
 // Segments the height map from the robot's cell and gives each segment a horizontal plane at
 // its indexed height, unless `plane_of_height` says otherwise.
 struct World {
@@ -55,8 +70,10 @@ struct World {
   std::vector<GroundPlane> planes;
   SafetyMap map;
 
-  World(const std::vector<std::string>& rows, int ru, int rv, int rw = 0) : hm(fromText(rows)) {
-    GroundSegmentation seg;
+  World(const std::vector<std::string>& rows, int ru, int rv, int rw = 0,
+        const GroundSegmentationConfig& sc = paperSegmentation())
+      : hm(fromText(rows)) {
+    GroundSegmentation seg(sc);
     EXPECT_TRUE(seg.segment(hm, VoxelIndex{ru, rv, rw}, kLv, &segs));
     for (int k = 0; k < segs.numSegments(); ++k) {
       planes.push_back(horizontal(segs.segment_height[k] * kLv));
@@ -64,7 +81,7 @@ struct World {
   }
   int segAt(int u, int v) const { return segs.segment_of[segs.index(u, v)]; }
   GroundPlane& planeAt(int u, int v) { return planes.at(segAt(u, v)); }
-  bool label(const SafetyLabellingConfig& c = SafetyLabellingConfig()) {
+  bool label(const SafetyLabellingConfig& c = paperLabelling()) {
     SafetyLabelling labelling(c);
     return labelling.label(hm, segs, planes, kLv, &map);
   }
@@ -98,6 +115,8 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.level_slope_deg = 12.0; }, "level_slope_deg");
   bad([](auto& b) { b.drop_off_radius = -0.1; }, "drop_off_radius");
   bad([](auto& b) { b.drop_off_min_drop = -1.0; }, "drop_off_min_drop");
+  bad([](auto& b) { b.max_gap_cells = 11; }, "max_gap_cells");
+  bad([](auto& b) { b.max_gap_cells = -1; }, "max_gap_cells");
   c.max_step_height = -1.0;
   EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
 }
@@ -212,12 +231,12 @@ TEST(SafetyLabelling, SmallAndThinSegmentsAreUnknown) {
   EXPECT_EQ(w.map.segments[w.segAt(14, 4)].num_boundary, 16);
 
   // Thin threshold: with r_thin = 0.6 the 5 x 5 square (9 < 0.6 * 16) is thin as well.
-  SafetyLabellingConfig c;
+  SafetyLabellingConfig c = paperLabelling();
   c.thin_ratio = 0.6;
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(14, 4), L::kUnknown);
   // n_small = 30 makes the 28-cell strip and the square small.
-  c = SafetyLabellingConfig();
+  c = paperLabelling();
   c.min_segment_cells = 30;
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(14, 4), L::kUnknown);
@@ -323,7 +342,7 @@ TEST(SafetyLabelling, DropOffEdgesBesideUnknownCellsNearLowerCells) {
   ASSERT_TRUE(wide.label());
   for (int v = 0; v < 16; ++v)
     EXPECT_FALSE(wide.drop(11, v));
-  SafetyLabellingConfig c;
+  SafetyLabellingConfig c = paperLabelling();
   c.drop_off_radius = 0.7;
   ASSERT_TRUE(wide.label(c));
   EXPECT_TRUE(wide.drop(11, 8));
@@ -336,7 +355,7 @@ TEST(SafetyLabelling, DropOffEdgesBesideUnknownCellsNearLowerCells) {
 
   // A drop smaller than drop_off_min_drop is no drop: lower level at -1 (0.1 m) with 0.15 m.
   World shallow(dropWorld(3, 'a'), 4, 8);
-  c = SafetyLabellingConfig();
+  c = paperLabelling();
   c.drop_off_min_drop = 0.15;
   ASSERT_TRUE(shallow.label(c));
   for (auto d : shallow.map.drop_off)
@@ -344,7 +363,7 @@ TEST(SafetyLabelling, DropOffEdgesBesideUnknownCellsNearLowerCells) {
   ASSERT_TRUE(shallow.label());
   EXPECT_TRUE(shallow.drop(11, 8));
 
-  c = SafetyLabellingConfig();
+  c = paperLabelling();
   c.mark_drop_offs = false;
   ASSERT_TRUE(w.label(c));
   for (auto d : w.map.drop_off)
@@ -408,13 +427,179 @@ TEST(SafetyLabelling, NoRobotSegmentLeavesNothingSafe) {
     for (int u = 15; u < 30; ++u)
       hm.set(u, v, HeightMap::kNoHeight);
   GroundSegments segs;
-  GroundSegmentation().segment(hm, VoxelIndex{29, 29, 0}, kLv, &segs);
+  GroundSegmentation(paperSegmentation()).segment(hm, VoxelIndex{29, 29, 0}, kLv, &segs);
   ASSERT_EQ(segs.numSegments(), 0);
   SafetyMap map;
-  ASSERT_TRUE(SafetyLabelling().label(hm, segs, {}, kLv, &map));
+  ASSERT_TRUE(SafetyLabelling(paperLabelling()).label(hm, segs, {}, kLv, &map));
   EXPECT_EQ(map.robot_segment, -1);
   EXPECT_EQ(map.labelAt(10, 10), L::kNonGround);
   EXPECT_EQ(map.labelAt(20, 20), L::kUnknown);
+}
+
+// ---- Extensions (ours): island segments (GroundSegmentationConfig::segment_islands) and
+// neighbours across unobserved cells (SafetyLabellingConfig::max_gap_cells).
+
+GroundSegmentationConfig islandSegmentation() {
+  GroundSegmentationConfig c;
+  c.segment_islands = true;
+  return c;
+}
+
+// A floor at height 0 with an unobserved stripe of `gap` columns at u = 10 .. 10 + gap - 1, the
+// far side at `far` ('0' level, '2' 0.2 m higher).
+std::vector<std::string> floorWithGap(int gap, char far) {
+  std::vector<std::string> rows = block(30, 20, '0');
+  for (std::string& r : rows) {
+    for (int u = 10; u < 10 + gap; ++u)
+      r[u] = '.';
+    for (int u = 10 + gap; u < 30; ++u)
+      r[u] = far;
+  }
+  return rows;
+}
+
+TEST(SafetyLabelling, PaperModeLeavesTheFloorBeyondAGapNonGround) {
+  // 000: the far floor is never reached by Alg. 1: its columns are non-traversable.
+  World w(floorWithGap(2, '0'), 2, 10);
+  ASSERT_TRUE(w.label());
+  EXPECT_EQ(w.at(5, 10), L::kLevel);
+  EXPECT_EQ(w.at(11, 10), L::kUnknown);  // the gap
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);
+}
+
+TEST(SafetyLabelling, IslandAcrossASmallGapOfUnobservedCellsIsReachable) {
+  World w(floorWithGap(2, '0'), 2, 10, 0, islandSegmentation());
+  ASSERT_EQ(w.segs.numSegments(), 2);
+  EXPECT_EQ(w.segs.segment_island[w.segAt(20, 10)], 1);
+  SafetyLabellingConfig c;  // max_gap_cells = 2
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(5, 10), L::kLevel);
+  EXPECT_EQ(w.at(11, 10), L::kUnknown);  // nothing was seen there: stays Unknown
+  EXPECT_EQ(w.at(20, 10), L::kLevel);
+  EXPECT_TRUE(w.map.segments[w.segAt(20, 10)].reachable);
+  // Without the gap rule the island is a segment but unreachable: Non-ground, as in 000.
+  ASSERT_TRUE(w.label(paperLabelling()));
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);
+}
+
+TEST(SafetyLabelling, GapWiderThanTheLimitIsNotBridged) {
+  World w(floorWithGap(3, '0'), 2, 10, 0, islandSegmentation());
+  SafetyLabellingConfig c;
+  c.max_gap_cells = 2;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);
+  c.max_gap_cells = 3;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(20, 10), L::kLevel);
+}
+
+TEST(SafetyLabelling, DropAcrossAGapStaysNonGround) {
+  // The far side is 0.2 m higher (or lower): the h_T test separates across gaps too.
+  for (const char far : {'2', 'b'}) {
+    World w(floorWithGap(2, far), 2, 10, 0, islandSegmentation());
+    ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+    EXPECT_EQ(w.at(5, 10), L::kLevel);
+    EXPECT_EQ(w.at(20, 10), L::kNonGround) << far;
+  }
+}
+
+TEST(SafetyLabelling, ObservedColumnsBetweenSegmentsAreNoGap) {
+  // A wall of tall columns between the floors: the line between the boundary cells crosses
+  // columns with a height, so the far floor is not a neighbour across a gap.
+  std::vector<std::string> rows = floorWithGap(2, '0');
+  for (std::string& r : rows)
+    r[11] = '9';
+  World w(rows, 2, 10, 0, islandSegmentation());
+  // A wall's columns are occupied from the floor to the top (its face): not ground-like.
+  for (int v = 0; v < 20; ++v)
+    w.hm.set(11, v, 9, 0);
+  GroundSegmentation(islandSegmentation()).segment(w.hm, VoxelIndex{2, 10, 0}, kLv, &w.segs);
+  w.planes.clear();
+  for (int k = 0; k < w.segs.numSegments(); ++k)
+    w.planes.push_back(horizontal(w.segs.segment_height[k] * kLv));
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(11, 10), L::kNonGround);  // the wall
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);  // unreachable behind it
+}
+
+// A floor (z = 0) running into an 8.5 deg ramp at u = 6 (z = 0.015 per cell). The floor's band
+// (indexed height 0) holds the ramp's first cells up to z = 0.045; the ramp's band starts at
+// u = 10 (z = 0.06). Each cell gets its measured surface height.
+World floorIntoRamp() {
+  std::vector<std::string> rows(20, std::string(20, '.'));
+  for (std::string& r : rows)
+    for (int u = 0; u < 20; ++u) {
+      const double z = u < 6 ? 0.0 : 0.015 * (u - 6);
+      r[u] = static_cast<char>('0' + static_cast<int>(std::lround(z / kLv)));
+    }
+  World w(rows, 2, 10, 0, islandSegmentation());
+  for (int v = 0; v < 20; ++v)
+    for (int u = 0; u < 20; ++u)
+      w.hm.setSurfaceHeight(u, v, static_cast<float>(u < 6 ? 0.0 : 0.015 * (u - 6)));
+  const double deg = std::atan(0.15) / kDeg;
+  for (int u = 10; u < 20; ++u)
+    w.planeAt(u, 10) = inclined(deg, 0.6, 0.0);  // the ramp's bands: the ramp's own plane
+  return w;
+}
+
+TEST(SafetyLabelling, PlanesAloneMissTheStartOfARampInTheFloorsBand) {
+  World w = floorIntoRamp();
+  SafetyLabellingConfig c = paperLabelling();
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(3, 10), L::kLevel);
+  // At the ramp band's border cells the floor's level plane is 6 cm below the surface.
+  EXPECT_EQ(w.at(11, 10), L::kNonGround);
+}
+
+TEST(SafetyLabelling, MeasuredStepTestReachesTheRamp) {
+  World w = floorIntoRamp();
+  SafetyLabellingConfig c = paperLabelling();
+  c.measured_step_test = true;  // neighbouring cells' surfaces differ by 1.5 cm
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(3, 10), L::kLevel);
+  EXPECT_EQ(w.at(11, 10), L::kInclined);
+}
+
+TEST(SafetyLabelling, MeasuredStepTestStillStopsAtAStep) {
+  // A 10 cm platform: measured heights and planes both differ by 10 cm at the border.
+  std::vector<std::string> rows = block(20, 20, '0');
+  for (std::string& r : rows)
+    for (int u = 10; u < 20; ++u)
+      r[u] = '1';
+  World w(rows, 2, 10, 0, islandSegmentation());
+  for (int v = 0; v < 20; ++v)
+    for (int u = 0; u < 20; ++u)
+      w.hm.setSurfaceHeight(u, v, u < 10 ? 0.0f : 0.1f);
+  SafetyLabellingConfig c;  // measured_step_test and max_gap_cells on
+  ASSERT_TRUE(c.measured_step_test);
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(3, 10), L::kLevel);
+  EXPECT_EQ(w.at(15, 10), L::kNonGround);
+  // ... and a 4 cm one is crossed.
+  for (int v = 0; v < 20; ++v)
+    for (int u = 10; u < 20; ++u)
+      w.hm.setSurfaceHeight(u, v, 0.04f);
+  w.planeAt(15, 10) = horizontal(0.04);
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(15, 10), L::kLevel);
+}
+
+TEST(SafetyLabelling, MeasuredStepTestIsNotFooledByACurbsFace) {
+  // A 15 cm curb down to a street (indexed height -1 here). The sidewalk's last column holds the
+  // top of the curb's face (mean 2 cm down), the street's first one its lower part (6 cm down):
+  // those two columns alone differ by 4 cm, the two surfaces around them by 12 cm.
+  std::vector<std::string> rows = block(20, 20, '0');
+  for (std::string& r : rows)
+    for (int u = 10; u < 20; ++u)
+      r[u] = 'a';
+  World w(rows, 2, 10, 0, islandSegmentation());
+  for (int v = 0; v < 20; ++v)
+    for (int u = 0; u < 20; ++u)
+      w.hm.setSurfaceHeight(u, v, u < 9 ? 0.0f : u == 9 ? -0.02f : u == 10 ? -0.06f : -0.15f);
+  w.planeAt(15, 10) = horizontal(-0.15);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(3, 10), L::kLevel);
+  EXPECT_EQ(w.at(15, 10), L::kNonGround);
 }
 
 }  // namespace

@@ -176,7 +176,21 @@ struct BoardCoverage {
 /// (tested on the box's three axes with the voxel's extent projected on each, and one extra voxel
 /// of slack across the board's thickness for stereo's depth error) and the voxel's centre is more
 /// than l_v above the board's lowest point, so that the floor under the board does not count.
-BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board);
+/// `covered_bins` (optional) receives one entry per sample, 1 where covered.
+BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board,
+                                 std::vector<std::uint8_t>* covered_bins = nullptr);
+
+/// The same width samples (one per map.resolution) covered by marked cells of a 2D map, e.g. the
+/// cells an obstacle cue marked (obstacle_cue.h): a sample is covered when a marked cell holds a
+/// point of the board's footprint at the sample's position along the width (the footprint taken
+/// with one cell of slack across the board's thickness, as the 3D test allows one voxel).
+/// `marked` has one entry per map cell (non-zero = marked). Covered samples are OR-ed into
+/// `covered_bins` (resized to the bin count when its size differs), so that the grid's and the
+/// cue's coverage combine.
+BoardCoverage boardWidthCoverageOfCells(const SafetyMap& map,
+                                        const std::vector<std::uint8_t>& marked,
+                                        const BoardBox& board,
+                                        std::vector<std::uint8_t>* covered_bins = nullptr);
 
 /// 1-based index of the first entry of `coverage` (one per camera frame from the board's
 /// appearance) that reaches `fraction`; -1 when none does.

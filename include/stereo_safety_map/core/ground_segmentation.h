@@ -27,6 +27,17 @@ struct GroundSegmentationConfig {
   /// robot's cell whose height differs least from the robot's base indexed height (at most
   /// w_T), the nearest among equals. No such cell: no robot segment and no segments at all.
   double seed_radius = 1.0;
+  /// Island segments (ours; false = 000's Alg. 1 alone). Sparse stereo breaks the observed
+  /// ground into islands separated by unobserved cells. Alg. 1 grows segments only from the
+  /// robot's island, so every column of the others is non-traversable, i.e. Non-ground, though
+  /// nothing was seen there but ground. With this on, once Alg. 1 has finished, every column
+  /// within R_max that has a height, was never compared with a segment's cell (Alg. 1 steps
+  /// 9-16) and looks like ground (its occupied voxels span at most island_max_span voxels, so it
+  /// is not the face of an obstacle) seeds a new segment grown by the same rules, never
+  /// absorbing a column that Alg. 1 compared and left out. Alg. 2 judges island segments like
+  /// any other: small or thin ones are Unknown, unreachable ones Non-ground.
+  bool segment_islands = true;
+  int island_max_span = 1;  ///< [voxels], [0, 1000]
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -45,6 +56,7 @@ struct GroundSegments {
   std::vector<int> segment_begin;
   std::vector<int> segment_cells;
   std::vector<std::int32_t> segment_height;  ///< indexed height w of each segment
+  std::vector<std::uint8_t> segment_island;  ///< per segment: 1 when grown as an island
   std::vector<int> non_traversable;          ///< cells with a height, within R_max, in no segment
 
   int numSegments() const { return static_cast<int>(segment_height.size()); }
@@ -77,8 +89,10 @@ class GroundSegmentation {
 
  private:
   GroundSegmentationConfig config_;
-  std::vector<int> to_compare_;  // cells of the current segment whose neighbours are pending
-  std::vector<int> pending_;     // L_U of Alg. 1, consumed first-in first-out
+  std::vector<int> to_compare_;         // cells of the current segment whose neighbours are pending
+  std::vector<int> pending_;            // L_U of Alg. 1, consumed first-in first-out
+  std::vector<std::uint8_t> compared_;  // per cell: a segment's cell had it as a neighbour
+  std::vector<std::uint8_t> locked_;    // per cell: compared by Alg. 1 and left out
 };
 
 }  // namespace stereo_safety_map

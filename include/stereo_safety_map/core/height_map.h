@@ -41,8 +41,13 @@ class HeightMap {
   /// Sizes the map to a window with no heights (for tests and for other sources of heights).
   /// Negative sizes are treated as 0.
   void reset(int min_u, int min_v, int width, int height);
-  /// Sets one column's indexed height (kNoHeight clears it); ignored outside the window.
+  /// Sets one column's indexed height (kNoHeight clears it), its lowest occupied voxel too;
+  /// ignored outside the window.
   void set(int u, int v, std::int32_t w);
+  /// Sets a column's height w and its lowest occupied voxel w_low (<= w).
+  void set(int u, int v, std::int32_t w, std::int32_t w_low);
+  /// Sets a column's measured surface height [m] (NaN: none); ignored outside the window.
+  void setSurfaceHeight(int u, int v, float z);
 
   int minU() const { return min_u_; }
   int minV() const { return min_v_; }
@@ -56,6 +61,18 @@ class HeightMap {
   /// Indexed height of column (u, v); kNoHeight when it has none or is outside the window.
   std::int32_t at(int u, int v) const { return inside(u, v) ? w_[index(u, v)] : kNoHeight; }
   std::int32_t atIndex(int cell) const { return w_[cell]; }
+  /// Indexed height of the lowest occupied voxel below the robot's top in the column (kNoHeight
+  /// when none). at() - lowestAt() is the column's vertical extent: 0 for a floor seen as one
+  /// layer, many voxels for the face of an obstacle or a floor under an overhang.
+  std::int32_t lowestAt(int u, int v) const {
+    return inside(u, v) ? w_low_[index(u, v)] : kNoHeight;
+  }
+  std::int32_t lowestAtIndex(int cell) const { return w_low_[cell]; }
+  /// Measured height of the surface in the column [m]: the mean z of the point list of its
+  /// highest occupied voxel (000 Sec. IV), NaN when the column has no height or no points. Unlike
+  /// the indexed height it is not quantised to l_v, so a ramp's columns differ by its slope
+  /// times their spacing, not by whole voxels.
+  float surfaceHeightAtIndex(int cell) const { return surface_z_[cell]; }
   const std::vector<std::int32_t>& data() const { return w_; }
   /// Highest indexed height considered by the last build() (the robot's top), for diagnostics.
   int topIndex() const { return top_w_; }
@@ -65,6 +82,8 @@ class HeightMap {
   int min_u_ = 0, min_v_ = 0, width_ = 0, height_ = 0;
   int top_w_ = 0;
   std::vector<std::int32_t> w_;
+  std::vector<std::int32_t> w_low_;
+  std::vector<float> surface_z_;
 };
 
 }  // namespace stereo_safety_map

@@ -181,6 +181,12 @@ struct ObstacleDetectionResult {
   std::string error;                 ///< why detect() returned false, else empty
 };
 
+/// Focal length [px] of the pinhole camera behind an organised range image (CV_32FC3, camera
+/// optical frame), for inputs that come without a CameraInfo (an organised PointCloud2): the
+/// least-squares fit of the column u against x / z over the valid pixels (u = f x / z + c_x).
+/// 0 when fewer than 100 pixels are valid or they span less than 10 columns.
+double estimateFocalLength(const cv::Mat& range_image);
+
 /// OD Algorithm 2 + OS Algorithm 2 + Sec. 5 rules (003). Not thread-safe; one per thread.
 /// Linear in the number of pixels: each pixel tests at most max_candidates_per_pixel others, and
 /// 8x8 tiles (and 4x4-tile blocks) whose 3D bounds cannot hold a compatible pair are skipped as

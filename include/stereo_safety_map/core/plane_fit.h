@@ -29,6 +29,14 @@ struct PlaneFitConfig {
   /// vertical surface, and z = a x + b y + c is not determined. A one-voxel-wide strip of points
   /// spread over its 0.1 m cells has about 0.029 m, well above the default.
   double min_xy_stddev = 0.005;
+  /// Voxel layers above and below the segment's indexed height whose points join the fit (ours;
+  /// 0 = only the voxels at the segment's height, 000 Sec. V-B read literally). A segment is a
+  /// band one voxel high; on a ramp its points are cut off at the band's top and bottom, and the
+  /// stereo noise that crossed those cuts is missing from the fit, which flattens the slope
+  /// (a 4.8 deg ramp fitted as 2 deg). The points that spilled into the layers above and below
+  /// and lie near the band's own plane (2.5 RMS residuals, at least l_v / 4) restore the
+  /// untruncated distribution; obstacle bases in those layers stay out.
+  int vertical_margin = 1;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;

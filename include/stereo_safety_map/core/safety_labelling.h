@@ -21,6 +21,26 @@ struct SafetyLabellingConfig {
   double max_step_height = 0.05;  ///< h_T [m]: largest plane height difference crossable (step 17)
   int min_passage_cells = 5;      ///< num_T: robot width in cells (Alg. 2 step 21)
   double level_slope_deg = 3.0;   ///< theta_T: steeper safe planes are Inclined (Alg. 2 step 28)
+  /// Neighbouring segments across unobserved cells (ours; 0 = 000 Sec. VI, where two segments
+  /// are neighbours only when boundary cells touch). Stereo leaves gaps in low-texture ground,
+  /// so the ground of one surface often falls apart into segments a cell or two apart. A
+  /// boundary cell of S and a cell of R at most max_gap_cells + 1 cells apart (Chebyshev) with
+  /// only columns without any height on the straight line between them count as neighbouring
+  /// boundary cells of Alg. 2 steps 11-19; the h_T and num_T tests are unchanged, so a drop
+  /// across a gap still separates. The gap cells themselves stay Unknown.
+  int max_gap_cells = 2;
+  /// Step test on measured heights as well (ours; false = 000 Alg. 2 steps 15-17 alone). The
+  /// paper compares the two segments' planes at a border cell's centre. A segment is a band of
+  /// one indexed height, so where a level floor runs into a ramp the floor's segment also holds
+  /// the ramp's first few decimetres, which its level plane does not model: at the border the
+  /// planes then differ by up to a voxel although the surface is continuous, and ramps become
+  /// unreachable. With this on, a border cell is also crossable when the local surface heights
+  /// of the two segments there differ by less than h_T, the ground truth's own test of a
+  /// drivable transition. The local surface height of a segment at a cell is the mean measured
+  /// height (HeightMap::surfaceHeightAtIndex, the mean height of the column's top-voxel points)
+  /// of the segment's cells within 2 cells: one column alone is too noisy, and along a curb
+  /// the columns of the curb's face, halfway down, would let a few border cells through.
+  bool measured_step_test = true;
 
   /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
   /// when it has an Unknown 8-neighbour and, within drop_off_radius [m] of its centre, a cell
@@ -29,6 +49,15 @@ struct SafetyLabellingConfig {
   /// shadow behind a drop: seen from a camera H = 1.1 m high at distance d, a drop of h hides
   /// d h / H of the lower level (0.36 m for h = 0.2 m at d = 2 m, 0.55 m at 3 m).
   bool mark_drop_offs = true;
+  /// A one-cell safety margin along observed drop-offs (ours; false = 000). Stereo's depth
+  /// noise carries points of a drop-off's upper edge a few centimetres beyond it, so the upper
+  /// surface's last column often lies already over the lower level (000 Sec. VII-A: obstacles
+  /// "bleed"; at a drop-off the safe side bleeds). With this on, a border cell of a Level /
+  /// Inclined segment whose 8-neighbour holds an observed surface lower than its own (local
+  /// surface heights, see measured_step_test) by more than max(h_T, drop_off_min_drop) is
+  /// Non-ground. Drop-offs whose lower side is hidden (next to Unknown) keep 000's potential
+  /// drop-off edge annotation.
+  bool drop_off_margin = true;
   double drop_off_radius = 0.5;
   double drop_off_min_drop = 0.05;  ///< defaults to h_T: a smaller drop is crossable
 
@@ -65,9 +94,15 @@ class SafetyLabelling {
     int ok;
   };
   int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
+  // Mean measured surface height of the cells of c's segment within kLocalSurfaceRadius cells
+  // of c (NaN when none has points); computed once per cell and label() call.
+  float localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c);
+  static constexpr int kLocalSurfaceRadius = 2;
 
   SafetyLabellingConfig config_;
   std::vector<std::uint8_t> boundary_;  // per cell
+  std::vector<float> local_z_;          // per cell, see localSurfaceHeight()
+  std::vector<int> margin_;             // cells of the drop-off margin
   std::vector<Contact> contacts_;
   std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
   std::vector<int> edge_begin_;

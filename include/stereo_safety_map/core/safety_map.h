@@ -49,6 +49,7 @@ struct SegmentInfo {
   GroundPlane plane;
   SafetyLabel label = SafetyLabel::kUnexamined;
   bool reachable = false;  ///< reached from the robot's segment in Alg. 2
+  bool island = false;     ///< grown as an island (GroundSegmentationConfig::segment_islands)
 };
 
 /// The result of one labelling pass. Cells are row-major: index = (v - min_v) * width + (u -

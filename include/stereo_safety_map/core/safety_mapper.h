@@ -103,6 +103,9 @@ class SafetyMapper {
 
   /// The last computed map (empty before the first).
   const SafetyMap& safetyMap() const { return map_; }
+  /// The same, writable: for cues fused after the labelling (obstacle_cue.h). The next
+  /// integrateFrame() or computeSafetyMap() recomputes the map from the grid alone.
+  SafetyMap& mutableSafetyMap() { return map_; }
   /// Timings of the last integrateFrame() / computeSafetyMap().
   const StageTimings& lastTimings() const { return timings_; }
 

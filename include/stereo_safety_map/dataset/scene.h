@@ -33,6 +33,10 @@ const char* toString(TextureKind k);
 bool parseTextureKind(const std::string& s, TextureKind* k);
 
 /// Surface appearance. Albedo = colour * (1 + contrast * t) where t in [-1, 1] is the texture.
+/// Default grain of textured materials (see Material::grain): a few percent of albedo
+/// modulation, about what a broom-finished concrete slab or fine asphalt shows.
+constexpr double kDefaultGrain = 0.05;
+
 struct Material {
   TextureKind texture = TextureKind::kNoise;
   double scale = 0.2;     ///< feature size / period [m], > 0
@@ -40,10 +44,22 @@ struct Material {
   Eigen::Vector3f colour = Eigen::Vector3f(0.5f, 0.5f, 0.5f);  ///< linear RGB albedo in [0, 1]
   double line_width = 0.06;  ///< grout / mortar / joint width as a fraction of scale, in [0, 0.5)
   double detail = 0.3;       ///< fine noise inside tiles and bricks, fraction of contrast, [0, 1]
-  double angle_deg = 0.0;    ///< rotation of the texture axes on the surface [deg]
+  /// Surface grain: fine albedo noise (aggregate, pores, fibres) at the centimetre scale, as
+  /// real concrete, asphalt, terrazzo or carpet show, independent of the pattern above. Relative
+  /// albedo modulation in [0, 1]; negative = the default for the texture kind (0 for `plain`,
+  /// kDefaultGrain otherwise). Band-limited to the pixel footprint like the pattern, so it fades
+  /// with distance as on a real camera.
+  double grain = -1.0;
+  double grain_size = 0.012;  ///< finest grain wavelength [m], > 0; octaves at 1, 2 and 4 x
+  double angle_deg = 0.0;     ///< rotation of the texture axes on the surface [deg]
   std::uint32_t seed = 0;    ///< decorrelates materials that share parameters
 
   std::string validate() const;
+  /// The grain amplitude in effect (resolves the negative default).
+  double effectiveGrain() const {
+    if (grain >= 0.0) return grain;
+    return texture == TextureKind::kPlain ? 0.0 : kDefaultGrain;
+  }
 };
 
 /// A half-space n . x <= d with unit normal n pointing out of the solid.

@@ -22,5 +22,10 @@ double fractalNoise(double u, double v, double scale, double footprint, std::uin
 /// footprint `footprint` [m] (> 0). Albedo = colour * (1 + contrast * t).
 double evaluateTexture(const Material& m, double u, double v, double footprint);
 
+/// Surface grain of a material at surface coordinates (u, v) [m] seen with a pixel footprint
+/// [m]: three octaves of value noise with equal amplitude at grain_size x 1, 2, 4, each faded
+/// out below the Nyquist limit; roughly in [-1, 1] (multiply by Material::effectiveGrain()).
+double evaluateGrain(const Material& m, double u, double v, double footprint);
+
 }  // namespace dataset
 }  // namespace stereo_safety_map

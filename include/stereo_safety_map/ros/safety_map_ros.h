@@ -16,8 +16,10 @@
 #pragma once
 
 #include "stereo_safety_map/core/landmark_filter.h"
+#include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -198,6 +200,22 @@ class SafetyMapRos {
   std::uint64_t window_processed_ = 0;
   std::uint64_t window_dropped_ = 0;
   ros::WallTime window_start_;
+
+  // Obstacle cue (~obstacle_cue): the labelled obstacle points of ObstacleDetectionNodelet (paper
+  // 003) mark their cells Non-ground in the next map (core/obstacle_cue.h). Lock order:
+  // core_mutex_ or stats_mutex_ before cue_mutex_; the cue callback holds cue_mutex_ alone.
+  void setUpObstacleCue();
+  void obstacleCueCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
+  void obstacleCueProblem(const std::string& detail);
+  void applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position);
+  void diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  ObstacleCueRosConfig cue_config_;
+  ros::Subscriber obstacle_cue_sub_;
+  std::mutex cue_mutex_;
+  std::unique_ptr<ObstacleCueFusion> obstacle_cue_;  ///< null when ~obstacle_cue is false
+  std::uint64_t cues_received_ = 0;                  ///< (guarded by cue_mutex_)
+  std::uint64_t cues_refused_ = 0;
+  ObstacleCueStats cue_stats_;  ///< of the last map
 };
 
 }  // namespace stereo_safety_map

@@ -1,0 +1,168 @@
+// The obstacle-detection ROS class: a range image in (an organised PointCloud2, or a
+// stereo_msgs/DisparityImage with its left CameraInfo), gravity from tf, the core's 3D obstacle
+// detection and segmentation (core/obstacle_detection.h, paper 003: Def. 1, OD / OS Algorithm 2,
+// Sec. 5 rules; or the column-wise baseline) and its results out: a colourised label image, the
+// labelled obstacle points as a PointCloud2 in the fixed frame (the safety-map nodelet's obstacle
+// cue, core/obstacle_cue.h) and the obstacles' boxes as markers. Wrapped by
+// src/nodelets/obstacle_detection_nodelet.cpp (stereo_safety_map/ObstacleDetectionNodelet).
+//
+// Inputs are subscribed lazily, only while an output has a subscriber. The data input passes a
+// tf2_ros::MessageFilter (the camera -> fixed_frame transform must exist at its stamp); the
+// disparity is synchronised with the left CameraInfo (exact or approximate).
+//
+// Threading model (as the other nodelets): callbacks on the nodelet manager's threads only put
+// the frame into a one-slot queue; one worker thread owned by this class converts, detects and
+// publishes. A frame arriving while another waits replaces it and is counted as dropped. The
+// detector and its buffers belong to the worker; counters live under stats_mutex_.
+#pragma once
+
+#include "stereo_safety_map/core/obstacle_detection.h"
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/obstacle_params.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <stereo_msgs/DisparityImage.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace stereo_safety_map {
+
+/// Organised PointCloud2 (height > 1, FLOAT32 x / y / z) -> CV_32FC3 range image (reused),
+/// NaN where a point is not finite. Empty string on success, otherwise why it is refused.
+std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xyz,
+                                std::size_t* non_finite = nullptr);
+
+class ObstacleDetectionRos {
+ public:
+  /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
+  /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
+  /// advertises / subscribes to nothing: see ok() / configError().
+  ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~ObstacleDetectionRos();
+
+  ObstacleDetectionRos(const ObstacleDetectionRos&) = delete;
+  ObstacleDetectionRos& operator=(const ObstacleDetectionRos&) = delete;
+
+  bool ok() const { return config_error_.empty(); }
+  const std::string& configError() const { return config_error_; }
+
+ private:
+  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
+  using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
+  using ExactPolicy = message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
+                                                                sensor_msgs::CameraInfo>;
+  using ApproximatePolicy =
+      message_filters::sync_policies::ApproximateTime<stereo_msgs::DisparityImage,
+                                                      sensor_msgs::CameraInfo>;
+
+  struct Frame {
+    std_msgs::Header header;
+    stereo_msgs::DisparityImageConstPtr disparity;
+    sensor_msgs::CameraInfoConstPtr left_info;
+    sensor_msgs::PointCloud2ConstPtr cloud;
+  };
+
+  void setUpInputs();
+  void connectCb();
+  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
+                   const sensor_msgs::CameraInfoConstPtr& left_info);
+  void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
+  void tfFailure(const std_msgs::Header& header);
+  void enqueue(std::unique_ptr<Frame> frame);
+  void workerLoop();
+  void processFrame(const Frame& frame);
+  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
+  void reject(const std::string& reason, const std::string& detail);
+
+  void publishLabelImage(const std_msgs::Header& header);
+  void publishObstacles(const std_msgs::Header& header, const Eigen::Isometry3f& T_fixed_camera);
+  void publishMarkers(const std_msgs::Header& header);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  std::string config_error_;
+  ObstacleDetectionRosConfig ros_config_;
+  ObstacleDetectionConfig detector_config_;
+
+  // Inputs (subscribed lazily, under connect_mutex_).
+  std::mutex connect_mutex_;
+  bool subscribed_ = false;
+  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
+  message_filters::Subscriber<stereo_msgs::DisparityImage> disparity_sub_;
+  message_filters::Subscriber<sensor_msgs::CameraInfo> left_info_sub_;
+  message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
+  std::unique_ptr<DisparityFilter> disparity_filter_;
+  std::unique_ptr<CloudFilter> cloud_filter_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+
+  // Outputs.
+  ros::Publisher label_image_pub_;
+  ros::Publisher obstacles_pub_;
+  ros::Publisher markers_pub_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  // One-slot queue between the callbacks and the worker.
+  std::mutex slot_mutex_;
+  std::condition_variable slot_cv_;
+  std::unique_ptr<Frame> slot_;
+  bool stop_ = false;
+  std::thread worker_;
+
+  // Worker-only: the core and buffers reused from frame to frame.
+  std::unique_ptr<ObstacleDetector> detector_;
+  ObstacleDetectionResult result_;
+  StereoCameraModel camera_;
+  cv::Mat disparity_;
+  cv::Mat xyz_;
+  cv::Mat colour_;
+
+  // Counters and diagnostics (guarded by stats_mutex_).
+  std::mutex stats_mutex_;
+  std::uint64_t frames_received_ = 0;
+  std::uint64_t frames_processed_ = 0;
+  std::uint64_t frames_dropped_ = 0;
+  std::uint64_t frames_rejected_ = 0;
+  std::uint64_t tf_failures_ = 0;
+  std::uint64_t non_finite_values_ = 0;
+  std::map<std::string, std::uint64_t> rejections_;
+  std::map<std::string, ros::WallTime> last_logged_;
+  std::string last_problem_;
+  ros::WallTime last_problem_time_;
+  double processing_ms_sum_ = 0.0;
+  double detection_ms_last_ = 0.0;
+  double focal_length_last_ = 0.0;
+  std::size_t valid_points_last_ = 0;
+  std::size_t obstacle_points_last_ = 0;
+  int accepted_last_ = 0;
+  int rejected_last_ = 0;
+  std::uint64_t window_received_ = 0;
+  std::uint64_t window_processed_ = 0;
+  std::uint64_t window_dropped_ = 0;
+  ros::WallTime window_start_;
+};
+
+}  // namespace stereo_safety_map

@@ -1,0 +1,62 @@
+// Validated parameters of the obstacle-detection nodelet
+// (stereo_safety_map/ObstacleDetectionNodelet, paper 003) and of the safety-map nodelet's obstacle
+// cue (core/obstacle_cue.h), from the parameter server or, for the offline tools, from the same
+// flat YAML files (config/obstacle_detection.yaml, config/safety_map.yaml).
+//
+// Names are the config structs' field names, flat in the private namespace, except the cue's,
+// which carry an `obstacle_cue` prefix in the safety-map nodelet's namespace. Absent parameters
+// keep the defaults. Every function returns an empty string when the values are valid and
+// otherwise one message naming the parameter, its value and the allowed range (wrong types are
+// refused, not truncated).
+#pragma once
+
+#include "stereo_safety_map/core/obstacle_cue.h"
+#include "stereo_safety_map/core/obstacle_detection.h"
+
+#include <ros/node_handle.h>
+
+#include <string>
+#include <vector>
+
+namespace stereo_safety_map {
+
+/// Settings of the obstacle-detection nodelet that are not the core's.
+struct ObstacleDetectionRosConfig {
+  std::string input = "disparity";   ///< "disparity" (DisparityImage + left CameraInfo) or "cloud"
+  std::string fixed_frame = "odom";  ///< gravity: the z axis of this tf frame points up
+  std::string method = "3d";         ///< "3d" (003 OD/OS Algorithm 2) or "columnwise" (baseline)
+  int queue_size = 5;                ///< subscriber / tf filter / sync queue [messages]
+  bool approximate_sync = false;     ///< approximate DisparityImage-CameraInfo sync
+  double min_depth = 0.2;  ///< range image: nearer points are missing [m] (the grid's min_range)
+  double max_depth = 8.0;  ///< range image: farther points are missing [m] (the grid's max_range)
+  double focal_length = 0.0;  ///< cloud input: f [px]; 0 = estimated from the organised cloud
+
+  std::string validate() const;
+};
+
+/// The obstacle cue of the safety-map nodelet (~obstacle_cue, ~obstacle_cue_lifetime,
+/// ~obstacle_cue_min_points).
+struct ObstacleCueRosConfig {
+  /// Subscribe to `obstacles` (the detector's labelled obstacle cloud) and mark their cells
+  /// Non-ground in the map at once. true: the cue only ever makes the map more cautious, and with
+  /// no detector running nothing arrives (see README, "Obstacle cue").
+  bool enabled = true;
+  ObstacleCueConfig cue;
+};
+
+std::string fromRosParam(const ros::NodeHandle& pnh, ObstacleDetectionConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, ObstacleDetectionRosConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, ObstacleCueRosConfig* config);
+
+/// Every parameter name the obstacle-detection nodelet reads from its private namespace.
+std::vector<std::string> obstacleDetectionParameterNames();
+/// The cue's parameter names in the safety-map nodelet's namespace.
+std::vector<std::string> obstacleCueParameterNames();
+
+/// The same keys from a flat YAML file (offline tools); keys of other settings are ignored.
+/// Empty on success.
+std::string loadObstacleDetectionParams(const std::string& path, ObstacleDetectionConfig* config,
+                                        ObstacleDetectionRosConfig* ros_config = nullptr);
+std::string loadObstacleCueParams(const std::string& path, ObstacleCueRosConfig* config);
+
+}  // namespace stereo_safety_map
