@@ -1,9 +1,9 @@
 // evaluate_hybrid: the evaluation of paper 001 (Murarka, Modayil & Kuipers 2006, Sec. 5) on the
 // package's dataset bags, without a roscore.
 //
-//   evaluate_hybrid --bag A.bag [--bag B.bag ...] [--overhang-bag T.bag ...] [--noisy-bag N.bag
-//   ...]
-//                   [--out DIR] [--params config/safety_map.yaml] [--set key=value ...]
+//   evaluate_hybrid --bag A.bag [--bag B.bag ...] [--overhang-bag T.bag ...]
+//                   [--noisy-bag N.bag ...] [--out DIR] [--params config/disparity.yaml
+//                   --params config/safety_map.yaml] [--set key=value ...]
 //                   [--every N] [--max-frames N] [--ghost-px 2.0] [--quiet]
 //
 // Every stereo pair goes through the pipeline the nodelets run (StereoFrameProcessor, through the
@@ -88,7 +88,7 @@ struct Options {
   std::vector<std::string> overhang_bags;
   std::vector<std::string> noisy_bags;
   std::string out = "out/evaluation/hybrid";
-  std::string params;
+  std::vector<std::string> params;
   std::vector<std::string> sets;
   int every = 1;
   long max_frames = -1;
@@ -105,7 +105,8 @@ void usage() {
       "  --bag           dataset bag (make_dataset): Table 2 of 001 (laser / stereo / merged)\n"
       "  --overhang-bag  also Table 2, plus pictures of its last frame (a scene with a table)\n"
       "  --noisy-bag     landmark filter on / off (ghost points need make_dataset --depth)\n"
-      "  --params        the safety-map nodelet's YAML (core keys applied)\n"
+      "  --params        the nodelets' YAML (config/disparity.yaml, config/safety_map.yaml; core\n"
+      "                  keys applied, in order; repeatable)\n"
       "  --ghost-px      disparity error [px] beyond which a point is a ghost (default 2)\n");
 }
 
@@ -134,7 +135,7 @@ bool parseArgs(int argc, char** argv, Options* o) {
       o->out = v;
     } else if (a == "--params") {
       if (!(v = next("--params"))) return false;
-      o->params = v;
+      o->params.push_back(v);
     } else if (a == "--set") {
       if (!(v = next("--set"))) return false;
       o->sets.push_back(v);
@@ -764,8 +765,8 @@ int main(int argc, char** argv) {
     command += std::string(" ") + argv[i];
 
   ssm::StereoFrameProcessorConfig config;
-  if (!opt.params.empty()) {
-    const std::string e = ssm::loadCoreParams(opt.params, &config);
+  for (const std::string& p : opt.params) {
+    const std::string e = ssm::loadCoreParams(p, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
