@@ -121,16 +121,31 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   compared_.assign(n, 0);
   locked_.assign(n, 0);
   const int max_span = config_.island_max_span;
+  // May a column join an island segment? Not when Alg. 1 compared it and left it out, not when
+  // its occupied voxels span more than island_max_span (the face of an obstacle), and not when
+  // an observed neighbour differs from it by more than w_T: beside a height discontinuity (an
+  // obstacle's edge, the floor under a table's edge) 000 calls a column non-traversable, and
+  // an island must not overrule that.
+  auto groundLike = [&](int cell) {
+    if (locked_[cell]) return false;
+    const std::int32_t w = hm.atIndex(cell);
+    if (static_cast<long long>(w) - hm.lowestAtIndex(cell) > max_span) return false;
+    const int u = cell % w_cells, v = cell / w_cells;
+    for (int j = 0; j < 8; ++j) {
+      const int un = u + kDu[j], vn = v + kDv[j];
+      if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
+      const std::int32_t wn = hm.atIndex(vn * w_cells + un);
+      if (wn != HeightMap::kNoHeight && std::llabs(static_cast<long long>(wn) - w) > w_t)
+        return false;
+    }
+    return true;
+  };
   // Grows segments from cell c by Alg. 1 steps 5-21; island segments do not take columns that
   // are locked or span more than island_max_span voxels.
   auto grow = [&](int c, bool island) {
     pending_.clear();
     std::size_t pending_head = 0;
-    auto admissible = [&](int cell) {
-      if (!island) return true;
-      if (locked_[cell]) return false;
-      return static_cast<long long>(hm.atIndex(cell)) - hm.lowestAtIndex(cell) <= max_span;
-    };
+    auto admissible = [&](int cell) { return !island || groundLike(cell); };
     while (c >= 0) {
       // Step 5: new segment S_k holding cell c.
       const int k = s.numSegments();
@@ -191,9 +206,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     for (int cell = 0; cell < n; ++cell) {
       if (!s.examined[cell] || s.segment_of[cell] >= 0 || locked_[cell] || compared_[cell])
         continue;
-      const std::int32_t w = hm.atIndex(cell);
-      if (w == HeightMap::kNoHeight) continue;
-      if (static_cast<long long>(w) - hm.lowestAtIndex(cell) > max_span) continue;
+      if (hm.atIndex(cell) == HeightMap::kNoHeight || !groundLike(cell)) continue;
       grow(cell, true);
     }
   }

@@ -123,10 +123,13 @@ std::string OccupancyGrid2DConfig::validate() const {
     e << "size_x * size_y / resolution^2 must be at most 1e8 cells";
   } else if (k < 1 || k > 255) {
     e << "k must be in [1, 255], got " << k;
-  } else if (free_threshold < 0 || free_threshold > 255) {
-    e << "free_threshold must be in [0, 255], got " << free_threshold;
-  } else if (occupied_threshold < free_threshold || occupied_threshold > 255) {
-    e << "occupied_threshold must be in [free_threshold, 255], got " << occupied_threshold;
+  } else if (free_threshold < 0 || free_threshold > OccupancyGrid2D::kUnknownValue) {
+    // A cell never seen (128) must not count as free, nor as occupied (002 Sec. 3.4).
+    e << "free_threshold must be in [0, 128] (unknown = 128 must not be free), got "
+      << free_threshold;
+  } else if (occupied_threshold < OccupancyGrid2D::kUnknownValue || occupied_threshold > 255) {
+    e << "occupied_threshold must be in [128, 255] (unknown = 128 must not be occupied), got "
+      << occupied_threshold;
   } else if (!finite(floor_clearance)) {
     e << "floor_clearance must be finite, got " << floor_clearance;
   } else if (!finite(robot_height) || robot_height <= floor_clearance) {

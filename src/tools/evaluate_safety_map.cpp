@@ -26,6 +26,7 @@
 #include "stereo_safety_map/core/evaluation_metrics.h"
 #include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
+#include "stereo_safety_map/dataset/ground_truth.h"
 #include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/msgs.h"
 
@@ -71,6 +72,7 @@
 #include <vector>
 
 namespace ssm = stereo_safety_map;
+namespace sdata = stereo_safety_map::dataset;
 using ssm::SafetyLabel;
 
 namespace {
@@ -103,7 +105,9 @@ struct Options {
   std::string camera = "stereo";
   bool model = true;
   bool quiet = false;
-  int dump_frame = -1;  // print the segments of this stereo pair's map (first dataset, first decr)
+  int dump_frame = -1;
+  std::string scenes = "scenes";  // where to look for scene files (local-horizon GT)  // print the
+                                  // segments of this stereo pair's map (first dataset, first decr)
 };
 
 void usage() {
@@ -126,6 +130,8 @@ void usage() {
       "  --params       YAML with the nodelets' flat parameters (config/safety_map.yaml,\n"
       "                 config/disparity.yaml); may be given more than once\n"
       "  --set k=v      one parameter (after --params), e.g. --set matcher=sgbm\n"
+      "  --scenes DIR   scene files for the local-horizon GT, when not where make_dataset read\n"
+      "                 them (default scenes)\n"
       "  --dump-frame N print the segments (label, size, height, plane, reachability) of pair N's\n"
       "                 map with the first --decr (debugging)\n"
       "  --recorded     evaluate SafetyMap messages recorded from the nodelets instead of running\n"
@@ -185,6 +191,8 @@ bool parseArgs(int argc, char** argv, Options* o) {
       o->model = false;
     } else if (a == "--quiet") {
       o->quiet = true;
+    } else if (a == "--scenes" && (v = next())) {
+      o->scenes = v;
     } else if (a == "--dump-frame" && (v = next())) {
       o->dump_frame = std::atoi(v);
     } else {
@@ -265,6 +273,11 @@ struct DatasetResult {
   std::uint64_t fp_in_segment = 0, fp_no_segment = 0, fp_without_robot_segment = 0;
   ssm::ConfusionCounts sum;
   ssm::ConfusionCounts seeded;  // maps in which the robot's segment was found
+  // Against the local-horizon GT: the scene's GT relabelled at every frame with reachability
+  // from the robot's position within R_max (what the robot could know), when the scene file
+  // is found; `local_maps` counts the maps compared.
+  ssm::ConfusionCounts local;
+  int local_maps = 0;
   Series stage_ms[kStages];
   std::vector<PlaneSample> planes_all;
   std::vector<PlaneSample> planes_protocol;
@@ -579,6 +592,24 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
       }
     }
 
+    // The local-horizon GT (see DatasetResult::local): the scene's GT map, relabelled per frame.
+    sdata::GroundTruthConfig gtc;
+    gtc.resolution = base.mapper.grid.voxel_size;
+    gtc.h_t = base.mapper.labelling.max_step_height;
+    gtc.theta_max_deg = base.mapper.labelling.max_slope_deg;
+    gtc.theta_t_deg = base.mapper.labelling.level_slope_deg;
+    gtc.robot_height = base.mapper.height_map.robot_height;
+    sdata::GroundTruthMap scene_gt, local_gt;
+    ssm::LabelGrid local_labels;
+    bool have_local = false;
+    if (!ds.latency_only) {
+      const std::string e =
+          sdata::recomputeDatasetGroundTruth(ds.gt_dir, opt.scenes, gtc, &scene_gt);
+      have_local = e.empty() && scene_gt.labels.size() == ds.gt.labels.size();
+      if (!have_local && !opt.quiet)
+        std::fprintf(stderr, "  %s: no local-horizon GT (%s)\n", ds.name.c_str(),
+                     e.empty() ? "GT map differs in size" : e.c_str());
+    }
     ssm::StereoBagReaderOptions ro;
     ro.camera = opt.camera;
     ro.fixed_frame = opt.fixed_frame;
@@ -628,6 +659,17 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
       const Eigen::Vector3d& robot = frame.robot;
       const cv::Mat& left = frame.left;
       const cv::Mat& right = frame.right;
+      bool local_ok = false;
+      if (have_local) {
+        local_gt = scene_gt;
+        local_ok = sdata::relabelGroundTruth(gtc, robot.head<2>(),
+                                             base.mapper.segmentation.planning_radius, &local_gt)
+                       .empty();
+        if (local_ok) {
+          local_labels = ds.gt;
+          local_labels.labels = local_gt.labels;
+        }
+      }
 
       for (std::size_t i = 0; i < slots.size(); ++i) {
         MapperSlot& s = slots[i];
@@ -660,6 +702,13 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
           ++res.integrated;
           const ssm::SafetyMap& map = s.processor->mapper().safetyMap();
           const bool protocol_frame = any_protocol_due;
+          if (local_ok) {
+            ssm::ConfusionCounts lc;
+            if (ssm::countConfusion(map, local_labels, &lc).empty()) {
+              res.local += lc;
+              ++res.local_maps;
+            }
+          }
           evaluateFrameMap(ds, map, pair_index, rec.stamp, protocol_frame && !ds.latency_only, &rec,
                            &res, &outcomes);
           if (protocol_frame) res.protocol_frames.push_back(pair_index);
@@ -1046,6 +1095,7 @@ PlaneSummary summarize(const std::vector<PlaneSample>& v) {
 struct RunSummary {
   ssm::MeanStd fn, fp, tp, tn, precision, recall, f1;
   ssm::MeanStd seeded_fn, seeded_fp;
+  ssm::MeanStd local_fn, local_fp;  // over the datasets with a local-horizon GT
   PlaneSummary planes_protocol, planes_all;
   Series stage_ms[kStages];
   int datasets = 0;
@@ -1056,7 +1106,7 @@ struct RunSummary {
 
 RunSummary summarize(const Run& run) {
   RunSummary s;
-  std::vector<double> fn, fp, tp, tn, p, r, f1, sfn, sfp;
+  std::vector<double> fn, fp, tp, tn, p, r, f1, sfn, sfp, lfn, lfp;
   std::vector<PlaneSample> pp, pa;
   for (const DatasetResult& d : run.datasets) {
     if (d.latency_only) continue;
@@ -1075,6 +1125,11 @@ RunSummary summarize(const Run& run) {
     f1.push_back(c.f1);
     sfn.push_back(es.fn);
     sfp.push_back(es.fp);
+    if (d.local_maps > 0) {
+      const ssm::ErrorRates el = ssm::errorRates(d.local);
+      lfn.push_back(el.fn);
+      lfp.push_back(el.fp);
+    }
     pp.insert(pp.end(), d.planes_protocol.begin(), d.planes_protocol.end());
     pa.insert(pa.end(), d.planes_all.begin(), d.planes_all.end());
     for (int k = 0; k < kStages; ++k)
@@ -1091,6 +1146,8 @@ RunSummary summarize(const Run& run) {
   s.f1 = ssm::meanStd(f1);
   s.seeded_fn = ssm::meanStd(sfn);
   s.seeded_fp = ssm::meanStd(sfp);
+  s.local_fn = ssm::meanStd(lfn);
+  s.local_fp = ssm::meanStd(lfp);
   s.planes_protocol = summarize(pp);
   s.planes_all = summarize(pa);
   return s;
@@ -1214,6 +1271,8 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
     jsonMeanStd(j, "f1", s.f1);
     jsonMeanStd(j, "fn_with_robot_segment", s.seeded_fn);
     jsonMeanStd(j, "fp_with_robot_segment", s.seeded_fp);
+    jsonMeanStd(j, "fn_local_horizon", s.local_fn);
+    jsonMeanStd(j, "fp_local_horizon", s.local_fp);
     j.key("planes_protocol").open('{');
     jsonMeanStd(j, "angle_deg", s.planes_protocol.angle);
     jsonMeanStd(j, "distance_m", s.planes_protocol.distance);
@@ -1239,6 +1298,9 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
       jsonRates(j, "rates", d.sum);
       jsonCounts(j, "counts_with_robot_segment", d.seeded);
       jsonRates(j, "rates_with_robot_segment", d.seeded);
+      j.kv("local_horizon_maps", d.local_maps);
+      jsonCounts(j, "counts_local_horizon", d.local);
+      jsonRates(j, "rates_local_horizon", d.local);
       const PlaneSummary pp = summarize(d.planes_protocol), pa = summarize(d.planes_all);
       j.key("planes_protocol").open('{');
       j.key("frames").open('[');
@@ -1335,20 +1397,29 @@ std::string writeOutputs(const Options& opt, const ssm::StereoFrameProcessorConf
                           "Recall (safe, 001)",
                           "F1 (safe, 001)",
                           "FN, maps with the robot's segment",
-                          "FP, maps with the robot's segment"};
-    for (int row = 0; row < 9; ++row) {
+                          "FP, maps with the robot's segment",
+                          "FN, local-horizon GT",
+                          "FP, local-horizon GT"};
+    for (int row = 0; row < 11; ++row) {
       md << "| " << rows[row] << " | ";
       for (const Run& r : runs) {
         const RunSummary s = summarize(r);
-        const ssm::MeanStd* m[] = {&s.fn,     &s.fp, &s.tp,        &s.tn,       &s.precision,
-                                   &s.recall, &s.f1, &s.seeded_fn, &s.seeded_fp};
+        const ssm::MeanStd* m[] = {&s.fn,        &s.fp,       &s.tp,      &s.tn,
+                                   &s.precision, &s.recall,   &s.f1,      &s.seeded_fn,
+                                   &s.seeded_fp, &s.local_fn, &s.local_fp};
         md << (row >= 4 && row <= 6 ? fmtPm(*m[row], 1.0, 3) : fmtPm(*m[row], 100.0)) << " | ";
       }
       md << "\n";
     }
     md << "\nPaper (decr 1 / 3 / 5): FN 3.0 / 8.5 / 11.2, FP 9.3 / 6.2 / 5.2, TP 97.0 / 91.5 / "
           "88.8, "
-          "TN 90.7 / 93.8 / 94.8. ROC curve: fig6a_roc.png (scripts/plot_evaluation.py).\n\n";
+          "TN 90.7 / 93.8 / 94.8. ROC curve: fig6a_roc.png (scripts/plot_evaluation.py).\n\n"
+          "The rates above compare with the dataset's GT map, whose reachability is that of the "
+          "whole scene from the robot's start (a lower level reached by a ramp far ahead is "
+          "safe). The local-horizon rows compare the same maps with the scene's GT relabelled "
+          "at each frame with reachability from the robot's position within R_max, i.e. with "
+          "what the robot could know; the difference is the share of errors that only a look "
+          "beyond R_max could avoid.\n\n";
     for (const Run& r : runs) {
       md << "### Per dataset, " << r.label << "\n\n"
          << "| dataset | maps | stationary | no robot segment | unsafe cells | safe cells | FN | "

@@ -280,6 +280,13 @@ float floorDisparity(int y) {
   return 5.0f + 0.2f * static_cast<float>(y - 59);
 }
 
+// The tests' 10 x 10 ghost patches are spikes for a threshold above 100 pixels.
+SpikeRemovalConfig spikeConfig200() {
+  SpikeRemovalConfig c;
+  c.min_region_size = 200;
+  return c;
+}
+
 TEST(SpikeRemoval, KeepsOnePixelPoleJoinedToTheFloorRemovesGhostPatch) {
   cv::Mat d = wallAndFloor();
   // Pole one pixel wide standing on the floor at row 100: rows 30-100 at the floor disparity of
@@ -292,8 +299,8 @@ TEST(SpikeRemoval, KeepsOnePixelPoleJoinedToTheFloorRemovesGhostPatch) {
   cv::Mat before = d.clone();
 
   SpikeRemovalConfig config;
+  config.min_region_size = 200;
   ASSERT_EQ(config.validate(), "");
-  ASSERT_GT(config.min_region_size, 100);  // the patch is a spike at the default size
   DisparityFilterWorkspace ws;
   EXPECT_EQ(filterSpikes(config, &d, &ws), 100);
   EXPECT_EQ(countWhere(d, cv::Rect(20, 10, 10, 10), true), 0);
@@ -309,7 +316,9 @@ TEST(SpikeRemoval, SamePoleCutFromTheFloorIsRemoved) {
   // Ends 10 rows above its base, where the floor is 2 disparities farther than the pole.
   for (int y = 30; y <= 90; ++y)
     d.at<float>(y, 80) = pole;
-  EXPECT_EQ(filterSpikes(SpikeRemovalConfig(), &d), 61);
+  SpikeRemovalConfig config;
+  config.min_region_size = 200;
+  EXPECT_EQ(filterSpikes(config, &d), 61);
   EXPECT_EQ(countWhere(d, cv::Rect(80, 30, 1, 61), true), 0);
 }
 
@@ -319,7 +328,7 @@ TEST(SpikeRemoval, ContinuityThresholdDecidesMembership) {
   cv::Mat d = wallAndFloor();
   d(cv::Rect(20, 10, 10, 10)).setTo(5.9f);
   d(cv::Rect(60, 10, 10, 10)).setTo(6.5f);
-  EXPECT_EQ(filterSpikes(SpikeRemovalConfig(), &d), 100);
+  EXPECT_EQ(filterSpikes(spikeConfig200(), &d), 100);
   EXPECT_EQ(countWhere(d, cv::Rect(20, 10, 10, 10), true), 100);
   EXPECT_EQ(countWhere(d, cv::Rect(60, 10, 10, 10), true), 0);
 
@@ -365,11 +374,11 @@ TEST(SpikeRemoval, WorkspaceIsReusedWithoutReallocation) {
   cv::Mat d = wallAndFloor();
   d(cv::Rect(20, 10, 10, 10)).setTo(20.0f);
   cv::Mat first = d.clone();
-  ASSERT_EQ(filterSpikes(SpikeRemovalConfig(), &first, &ws), 100);
+  ASSERT_EQ(filterSpikes(spikeConfig200(), &first, &ws), 100);
   const void* surface = ws.surface.data;
   const void* region = ws.region.data();
   cv::Mat second = d.clone();
-  ASSERT_EQ(filterSpikes(SpikeRemovalConfig(), &second, &ws), 100);
+  ASSERT_EQ(filterSpikes(spikeConfig200(), &second, &ws), 100);
   EXPECT_EQ(ws.surface.data, surface);
   EXPECT_EQ(ws.region.data(), region);
   EXPECT_TRUE(identical(first, second));

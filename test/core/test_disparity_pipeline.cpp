@@ -268,6 +268,7 @@ TEST(DisparityPipeline, GhostPatchIsRemovedBySpikeRemoval) {
   const cv::Rect core(202, 102, 10, 10);
 
   DisparityPipelineConfig config;
+  config.spike_removal.min_region_size = 200;  // the ghost is a 10 x 10 patch
   config.debug = true;
   config.enable_spike_removal = false;
   DisparityPipeline without(config);

@@ -81,7 +81,15 @@ std::vector<ReferencePlane> toReferencePlanes(const std::vector<ds::GroundTruthP
   return out;
 }
 
-TEST(EvaluatorEndToEnd, SmallRenderedDatasetHasLowErrorRates) {
+struct E2EResult {
+  ConfusionCounts sum, seeded;
+  int integrated = 0, stationary = 0;
+  MeanStd angle, distance;
+};
+
+// Runs the small scene through StereoFrameProcessor with `config` and compares every map with
+// the ground truth.
+void runEndToEnd(const StereoFrameProcessorConfig& config, E2EResult* out) {
   const ds::Scene scene = smallScene();
   ASSERT_EQ(scene.validate(), "");
   ds::StereoHeadConfig head;
@@ -104,7 +112,6 @@ TEST(EvaluatorEndToEnd, SmallRenderedDatasetHasLowErrorRates) {
   camera.width = head.width;
   camera.height = head.height;
 
-  StereoFrameProcessorConfig config;
   StereoFrameProcessor processor(config);
   const Eigen::Isometry3d T_base_optical = head.baseToLeftOptical();
 
@@ -150,36 +157,68 @@ TEST(EvaluatorEndToEnd, SmallRenderedDatasetHasLowErrorRates) {
       distances.push_back(a.mean_distance);
     }
   }
-  EXPECT_EQ(stationary, 2);
-  EXPECT_EQ(integrated, 40);
-  EXPECT_EQ(sum.maps, 40u);
+  out->sum = sum;
+  out->seeded = seeded;
+  out->integrated = integrated;
+  out->stationary = stationary;
+  out->angle = meanStd(angles);
+  out->distance = meanStd(distances);
+}
 
-  const ErrorRates rates = errorRates(sum);
-  const ErrorRates seeded_rates = errorRates(seeded);
-  const SafeClassScores scores = safeClassScores(seeded);
-  const MeanStd angle = meanStd(angles), distance = meanStd(distances);
+void print(const char* label, const E2EResult& r) {
+  const ErrorRates rates = errorRates(r.sum), seeded = errorRates(r.seeded);
+  const SafeClassScores scores = safeClassScores(r.seeded);
   std::printf(
-      "e2e: TP %llu FP %llu FN %llu TN %llu; FN %.2f %% FP %.2f %% (%llu maps with the "
+      "e2e %s: TP %llu FP %llu FN %llu TN %llu; FN %.2f %% FP %.2f %% (%llu maps with the "
       "robot's segment: FN %.2f %% FP %.2f %%; P %.3f R %.3f F1 %.3f); planes %d: %.2f +- "
       "%.2f deg, %.2f +- %.2f cm\n",
-      static_cast<unsigned long long>(sum.tp), static_cast<unsigned long long>(sum.fp),
-      static_cast<unsigned long long>(sum.fn), static_cast<unsigned long long>(sum.tn),
-      100 * rates.fn, 100 * rates.fp, static_cast<unsigned long long>(seeded.maps),
-      100 * seeded_rates.fn, 100 * seeded_rates.fp, scores.precision, scores.recall, scores.f1,
-      angle.n, angle.mean, angle.stddev, 100 * distance.mean, 100 * distance.stddev);
+      label, static_cast<unsigned long long>(r.sum.tp), static_cast<unsigned long long>(r.sum.fp),
+      static_cast<unsigned long long>(r.sum.fn), static_cast<unsigned long long>(r.sum.tn),
+      100 * rates.fn, 100 * rates.fp, static_cast<unsigned long long>(r.seeded.maps),
+      100 * seeded.fn, 100 * seeded.fp, scores.precision, scores.recall, scores.f1, r.angle.n,
+      r.angle.mean, r.angle.stddev, 100 * r.distance.mean, 100 * r.distance.stddev);
+}
 
+void expectComparedAndAccurate(const E2EResult& r) {
+  EXPECT_EQ(r.stationary, 2);
+  EXPECT_EQ(r.integrated, 40);
+  EXPECT_EQ(r.sum.maps, 40u);
   // Enough of both classes compared for the rates to mean something.
-  EXPECT_GT(sum.unsafeCells(), 40u * 50u);
-  EXPECT_GT(sum.safeCells(), 40u * 300u);
-  EXPECT_GE(seeded.maps, 20u);
-  EXPECT_LT(rates.fn, 0.02);
-  EXPECT_LT(rates.fp, 0.35);  // the first frames, before the seed, are all Non-ground
-  EXPECT_LT(seeded_rates.fn, 0.02);
-  EXPECT_LT(seeded_rates.fp, 0.05);
-  EXPECT_GT(scores.f1, 0.95);
-  ASSERT_GT(angle.n, 0);
-  EXPECT_LT(angle.mean, 1.0);
-  EXPECT_LT(distance.mean, 0.025);
+  EXPECT_GT(r.sum.unsafeCells(), 40u * 50u);
+  EXPECT_GT(r.sum.safeCells(), 40u * 300u);
+  EXPECT_GE(r.seeded.maps, 20u);
+  EXPECT_LT(errorRates(r.sum).fp, 0.35);  // the first frames, before the seed, are all Non-ground
+  EXPECT_GT(safeClassScores(r.seeded).f1, 0.95);
+  ASSERT_GT(r.angle.n, 0);
+  EXPECT_LT(r.angle.mean, 1.0);
+  EXPECT_LT(r.distance.mean, 0.025);
+}
+
+TEST(EvaluatorEndToEnd, SmallRenderedDatasetHasLowErrorRates) {
+  E2EResult r;
+  runEndToEnd(StereoFrameProcessorConfig(), &r);
+  print("defaults", r);
+  expectComparedAndAccurate(r);
+  EXPECT_LT(errorRates(r.sum).fn, 0.005);
+  EXPECT_LT(errorRates(r.seeded).fn, 0.005);
+  EXPECT_LT(errorRates(r.seeded).fp, 0.08);
+}
+
+// The drop-off margin (SafetyLabellingConfig::drop_off_margin) trades false positives along the
+// drop's upper edge for the false negatives of the safe side bleeding over it.
+TEST(EvaluatorEndToEnd, DropOffMarginTradesFalsePositivesForFalseNegatives) {
+  StereoFrameProcessorConfig without;
+  without.mapper.labelling.drop_off_margin = false;
+  E2EResult a, b;
+  runEndToEnd(without, &a);
+  runEndToEnd(StereoFrameProcessorConfig(), &b);
+  print("without margin", a);
+  expectComparedAndAccurate(a);
+  EXPECT_LT(errorRates(a.sum).fn, 0.02);
+  EXPECT_LT(errorRates(a.seeded).fp, 0.05);
+  EXPECT_GT(a.sum.fn, 0u);  // the bleeding the margin is for happens here
+  EXPECT_LT(b.sum.fn, a.sum.fn);
+  EXPECT_GT(b.sum.fp, a.sum.fp);
 }
 
 }  // namespace

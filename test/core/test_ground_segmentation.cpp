@@ -423,21 +423,25 @@ TEST(GroundSegmentation, ObstacleLikeColumnsDoNotSeedIslands) {
   // A pole seen without the floor around it: its column's occupied voxels span 14 voxels, so
   // it is the face of an obstacle, not ground, and stays non-traversable (Non-ground).
   HeightMap hm = fromText({
-      "000.......",
-      "000.......",
-      "000.......",
+      "000..........",
+      "000..........",
+      "000..........",
   });
-  hm.set(7, 1, 14, 0);  // the pole: top at 14, lowest occupied voxel at 0
-  hm.set(8, 1, 0, 0);   // a floor column beside it...
+  hm.set(6, 1, 14, 0);  // the pole: top at 14, lowest occupied voxel at 0
+  hm.set(8, 1, 0, 0);   // a floor column away from it...
   hm.set(9, 1, 1, 0);   // ...and one spanning one voxel (noise): still ground-like
+  hm.set(11, 1, 0, 0);  // floor right beside a tall column (a table's edge above it, say)
+  hm.set(12, 1, 7, 7);
   GroundSegments s;
   ASSERT_TRUE(GroundSegmentation(islandConfig()).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
   expectConsistent(hm, s);
-  EXPECT_EQ(s.segment_of[s.index(7, 1)], -1);
-  ASSERT_EQ(s.non_traversable.size(), 1u);
-  EXPECT_EQ(s.non_traversable[0], s.index(7, 1));
+  EXPECT_EQ(s.segment_of[s.index(6, 1)], -1);
   EXPECT_GE(s.segment_of[s.index(8, 1)], 1);
   EXPECT_GE(s.segment_of[s.index(9, 1)], 1);
+  // Beside a height discontinuity 000 calls both columns non-traversable; islands keep that.
+  EXPECT_EQ(s.segment_of[s.index(11, 1)], -1);
+  EXPECT_EQ(s.segment_of[s.index(12, 1)], -1);
+  EXPECT_EQ(s.non_traversable.size(), 3u);
   GroundSegmentationConfig c = islandConfig();
   c.island_max_span = 0;
   ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));

@@ -2,6 +2,8 @@
 // exactly (floor + boxes), so every expected cell follows from the geometry.
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 
+#include "stereo_safety_map/core/disparity_filters.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -118,6 +120,19 @@ TEST(OccupancyGrid2DConfig, InvalidValuesNameTheParameter) {
               c.occupied_threshold = 40;
             }).find("occupied_threshold"),
             std::string::npos);
+  // Never-seen cells (128) must stay unknown: neither free nor occupied.
+  EXPECT_NE(
+      message([](OccupancyGrid2DConfig& c) { c.free_threshold = 129; }).find("free_threshold"),
+      std::string::npos);
+  EXPECT_NE(message([](OccupancyGrid2DConfig& c) {
+              c.occupied_threshold = 127;
+            }).find("occupied_threshold"),
+            std::string::npos);
+  EXPECT_EQ(message([](OccupancyGrid2DConfig& c) {
+              c.free_threshold = 128;
+              c.occupied_threshold = 128;
+            }),
+            "");
   EXPECT_NE(message([](OccupancyGrid2DConfig& c) { c.robot_height = 0.05; }).find("robot_height"),
             std::string::npos);
   EXPECT_NE(message([](OccupancyGrid2DConfig& c) {
@@ -551,6 +566,86 @@ TEST_F(PitchedCamera, ObstacleAboveTheBandIsIgnoredObstacleInsideIsMapped) {
   EXPECT_TRUE(grid.isFree(grid.indexOf({2.0f, 0.0f})));
   EXPECT_FALSE(grid.isOccupied(grid.indexOf({2.5f, 0.0f})));
   EXPECT_EQ(grid.value(grid.indexOf({3.6f, 0.0f})), 128);  // behind the crate
+}
+
+// --- spike removal before the grid (002 Sec. 4.2 with Sec. 3.3) --------------------------------
+
+// 002 Sec. 4.1-4.2: a coherent mismatch patch floating in front of a wall becomes a ghost
+// obstacle in the grid; spike removal (disparity_filters.h, run before the grid as in the
+// disparity nodelet) deletes it, while a one-pixel-wide pole that stands on the floor - part of
+// the floor's continuous disparity surface - survives and stays an obstacle.
+class GhostAndPole : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model = makeModel(320, 240, 300.0, 0.12);  // fB = 36
+    pose = cameraPose({0.0f, 0.0f, 0.6f}, 0.0f, 0.1745f);
+    const Box wall{Eigen::Vector3f(8.0f, -6.0f, 0.0f), Eigen::Vector3f(8.3f, 6.0f, 2.0f)};
+    image = render(model, pose, {wall});
+    // Pole: image column 200 from the floor row at about 4 m up by 40 rows, all at the
+    // disparity of its base, as a thin upright object at one depth.
+    pole_base_row = -1;
+    for (int y = 0; y < model.height; ++y) {
+      if (image.at<float>(y, 200) >= 9.0f) {
+        pole_base_row = y;
+        break;
+      }
+    }
+    ASSERT_GT(pole_base_row, 60);
+    const float pole_d = image.at<float>(pole_base_row, 200);
+    for (int y = pole_base_row - 40; y <= pole_base_row; ++y)
+      image.at<float>(y, 200) = pole_d;
+    // Ghost: a 12 x 12 patch at d = 18 (2 m) where the wall (d ~ 4.5) is seen.
+    image(cv::Rect(60, 40, 12, 12)).setTo(18.0f);
+    ghost_xy = pointOf(65.5, 45.0, 18.0);
+    pole_xy = pointOf(200.0, pole_base_row - 20.0, pole_d);
+  }
+  Eigen::Vector2f pointOf(double x, double y, double d) const {
+    const double z = model.fx * model.baseline / d;
+    const Eigen::Vector3f p(static_cast<float>((x - model.cx) * z / model.fx),
+                            static_cast<float>((y - model.cy) * z / model.fy),
+                            static_cast<float>(z));
+    return (pose * p).head<2>();
+  }
+  OccupancyGrid2D map(const cv::Mat& disparity) const {
+    OccupancyGrid2D grid;
+    for (int i = 0; i < 5; ++i)
+      EXPECT_TRUE(grid.update(disparity, model, pose).ok());
+    return grid;
+  }
+  StereoCameraModel model;
+  Eigen::Isometry3f pose;
+  cv::Mat image;
+  int pole_base_row = -1;
+  Eigen::Vector2f ghost_xy, pole_xy;
+};
+
+TEST_F(GhostAndPole, SpikeRemovalDeletesTheGhostObstacleKeepsThePole) {
+  // Without spike removal: both are obstacles.
+  const OccupancyGrid2D raw = map(image);
+  EXPECT_TRUE(raw.isOccupied(raw.indexOf(ghost_xy))) << ghost_xy.transpose();
+  EXPECT_TRUE(raw.isOccupied(raw.indexOf(pole_xy))) << pole_xy.transpose();
+
+  cv::Mat filtered = image.clone();
+  SpikeRemovalConfig spikes;  // 002 Sec. 4.2: |d_j - d_i| <= 1, surfaces below 200 px go
+  ASSERT_EQ(filterSpikes(spikes, &filtered), 144);
+  const OccupancyGrid2D clean = map(filtered);
+  // The ghost's cell is now seen through: cleared by the wall's readings behind it.
+  EXPECT_FALSE(clean.isOccupied(clean.indexOf(ghost_xy)));
+  EXPECT_TRUE(clean.isFree(clean.indexOf(ghost_xy)));
+  EXPECT_TRUE(clean.isOccupied(clean.indexOf(pole_xy)));
+  // Nothing else occupied between the camera and the wall but the pole.
+  int occupied_before_wall = 0;
+  const GridCell2D mn = clean.minIndex();
+  for (int v = mn.v; v < mn.v + clean.sizeV(); ++v) {
+    for (int u = mn.u; u < mn.u + clean.sizeU(); ++u) {
+      const Eigen::Vector2f c = clean.centerOf({u, v});
+      if (c.x() < 7.0f && clean.isOccupied({u, v})) {
+        ++occupied_before_wall;
+        EXPECT_LT((c - pole_xy).norm(), 0.5f) << c.transpose();
+      }
+    }
+  }
+  EXPECT_GE(occupied_before_wall, 1);
 }
 
 // --- bad input ---------------------------------------------------------------------------------

@@ -266,7 +266,9 @@ TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
   PlaneFitConfig band_only;
   band_only.vertical_margin = 0;
   const GroundPlane p0 = PlaneFitter(band_only).fitSegment(grid, s, 0);
-  const GroundPlane p1 = PlaneFitter().fitSegment(grid, s, 0);
+  PlaneFitConfig margin;
+  margin.vertical_margin = 1;
+  const GroundPlane p1 = PlaneFitter(margin).fitSegment(grid, s, 0);
   ASSERT_TRUE(p0.valid);
   ASSERT_TRUE(p1.valid);
   EXPECT_GT(std::abs(p0.slope_deg - 6.0), 1.0);  // flattened

@@ -33,8 +33,10 @@ struct GroundSegmentationConfig {
   /// nothing was seen there but ground. With this on, once Alg. 1 has finished, every column
   /// within R_max that has a height, was never compared with a segment's cell (Alg. 1 steps
   /// 9-16) and looks like ground (its occupied voxels span at most island_max_span voxels, so it
-  /// is not the face of an obstacle) seeds a new segment grown by the same rules, never
-  /// absorbing a column that Alg. 1 compared and left out. Alg. 2 judges island segments like
+  /// is not the face of an obstacle, and no observed 8-neighbour differs from it by more than
+  /// w_T, so it is not beside an obstacle's edge or under a table's) seeds a new segment grown
+  /// by the same rules over such columns only, never absorbing a column that Alg. 1 compared
+  /// and left out. Alg. 2 judges island segments like
   /// any other: small or thin ones are Unknown, unreachable ones Non-ground.
   bool segment_islands = true;
   int island_max_span = 1;  ///< [voxels], [0, 1000]

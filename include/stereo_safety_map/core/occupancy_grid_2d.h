@@ -61,8 +61,8 @@ struct OccupancyGrid2DConfig {
   double size_x = 20.0;           ///< window extent along x [m] (not in 002: a robot-local window)
   double size_y = 20.0;           ///< window extent along y [m]
   int k = 20;                     ///< K of the +/-K update (002 Sec. 3.4)
-  int free_threshold = 50;        ///< G < this is free (002 Sec. 3.4 planning value)
-  int occupied_threshold = 150;   ///< G > this is occupied (002 Sec. 3.4 planning value)
+  int free_threshold = 50;        ///< G < this is free (002 Sec. 3.4 planning value), [0, 128]
+  int occupied_threshold = 150;   ///< G > this is occupied (002 Sec. 3.4), [128, 255]
   double floor_clearance = 0.10;  ///< lower edge of the obstacle band above the floor [m]; not
                                   ///< in 002 (level camera). Above 000's h_T = 0.05 m step with a
                                   ///< margin for the height noise of far floor points.

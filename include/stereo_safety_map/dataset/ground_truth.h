@@ -99,6 +99,16 @@ std::string computeGroundTruth(const Scene& scene, const GroundTruthConfig& conf
 std::string relabelGroundTruth(const GroundTruthConfig& config, const Eigen::Vector2d& robot,
                                double planning_radius, GroundTruthMap* map);
 
+/// The GT map of a rendered dataset computed again from its scene file, for the per-cell facts
+/// the label file does not keep (ground height, obstacle, slope, reachability): reads
+/// <gt_dir>/dataset.yaml (scene_file, variant), takes the scene file where make_dataset read it
+/// or, failing that, the file of that name in `scenes_dir`, and runs computeGroundTruth() from
+/// the trajectory's start with `config` (make_dataset uses the default config). `scene_path`
+/// (optional) receives the file used. Returns an error message, empty on success.
+std::string recomputeDatasetGroundTruth(const std::string& gt_dir, const std::string& scenes_dir,
+                                        const GroundTruthConfig& config, GroundTruthMap* gt,
+                                        std::string* scene_path = nullptr);
+
 std::vector<GroundTruthPlane> groundTruthPlanes(const Scene& scene, const GroundTruthMap& map);
 std::vector<GroundTruthObstacle> groundTruthObstacles(const Scene& scene);
 

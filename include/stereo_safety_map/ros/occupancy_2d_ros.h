@@ -1,0 +1,150 @@
+// The 2D occupancy-grid ROS class (paper 002, Murray & Little 1998): stereo disparity and tf in,
+// the core's OccupancyGrid2D (core/occupancy_grid_2d.h: column maxima in a height band, trapezoid
+// sensor model, +/-K update, accuracy preservation) updated, nav_msgs/OccupancyGrid out in the
+// fixed frame. Wrapped by src/nodelets/occupancy_2d_nodelet.cpp
+// (stereo_safety_map/Occupancy2DNodelet). The disparity's own validation and spike removal (002
+// Sec. 2.2, 4.2) happen upstream, in the disparity nodelet.
+//
+// Inputs are synchronised as in the safety-map nodelet: the DisparityImage passes a
+// tf2_ros::MessageFilter (its frame must be transformable into fixed_frame at its stamp), then an
+// exact (or approximate) sync with the left / right CameraInfo. Threading as there too: callbacks
+// only fill a one-slot queue (newest frame wins, replaced frames are counted as drops); one worker
+// thread converts, updates the grid and publishes; the grid is guarded by core_mutex_, which
+// ~reset takes as well.
+#pragma once
+
+#include "stereo_safety_map/core/occupancy_grid_2d.h"
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/occupancy_2d_params.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <std_srvs/Empty.h>
+#include <stereo_msgs/DisparityImage.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/message_filter.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <opencv2/core.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace stereo_safety_map {
+
+class Occupancy2DRos {
+ public:
+  /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
+  /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
+  /// subscribes to nothing: see ok() / configError().
+  Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~Occupancy2DRos();
+
+  Occupancy2DRos(const Occupancy2DRos&) = delete;
+  Occupancy2DRos& operator=(const Occupancy2DRos&) = delete;
+
+  bool ok() const { return config_error_.empty(); }
+  const std::string& configError() const { return config_error_; }
+
+ private:
+  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
+                                                sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
+      stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using Clock = std::chrono::steady_clock;
+
+  struct Frame {
+    stereo_msgs::DisparityImageConstPtr disparity;
+    sensor_msgs::CameraInfoConstPtr left_info;
+    sensor_msgs::CameraInfoConstPtr right_info;
+  };
+
+  void setUpInputs();
+  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
+                   const sensor_msgs::CameraInfoConstPtr& left,
+                   const sensor_msgs::CameraInfoConstPtr& right);
+  void tfFailure(const std_msgs::Header& header,
+                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  void workerLoop();
+  void processFrame(const Frame& frame);
+  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
+  void reject(const std::string& reason, const std::string& detail);
+  bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+  std::string config_error_;
+  Occupancy2DRosConfig ros_config_;
+  OccupancyGrid2DConfig grid_config_;
+
+  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<message_filters::Subscriber<stereo_msgs::DisparityImage>> disparity_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> left_info_sub_;
+  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> right_info_sub_;
+  std::unique_ptr<DisparityFilter> disparity_filter_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+
+  ros::Publisher grid_pub_;
+  ros::ServiceServer reset_srv_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::Timer diagnostics_timer_;
+
+  // One-slot queue between the callbacks and the worker.
+  std::mutex slot_mutex_;
+  std::condition_variable slot_cv_;
+  std::unique_ptr<Frame> slot_;
+  bool stop_ = false;
+  std::thread worker_;
+
+  // Worker-only buffers, reused from frame to frame.
+  cv::Mat disparity_;
+  cv::Mat image_;
+  StereoCameraModel camera_;
+  ros::Time last_stamp_;
+
+  // The core (guarded by core_mutex_).
+  std::mutex core_mutex_;
+  std::unique_ptr<OccupancyGrid2D> grid_;
+
+  // Counters and diagnostics (guarded by stats_mutex_).
+  std::mutex stats_mutex_;
+  std::uint64_t frames_received_ = 0;
+  std::uint64_t frames_processed_ = 0;
+  std::uint64_t frames_dropped_ = 0;
+  std::uint64_t frames_rejected_ = 0;
+  std::uint64_t tf_failures_ = 0;
+  std::uint64_t map_resets_ = 0;
+  std::uint64_t non_finite_values_ = 0;
+  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
+  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
+  std::string last_problem_;
+  ros::WallTime last_problem_time_;
+  Grid2DUpdateStats last_update_;
+  double processing_ms_last_ = 0.0;
+  double processing_ms_sum_ = 0.0;
+  std::uint64_t window_received_ = 0;
+  std::uint64_t window_processed_ = 0;
+  std::uint64_t window_dropped_ = 0;
+  ros::WallTime window_start_;
+};
+
+}  // namespace stereo_safety_map
