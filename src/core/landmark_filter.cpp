@@ -1,7 +1,11 @@
 #include "stereo_safety_map/core/landmark_filter.h"
 
+#include "stereo_safety_map/core/safety_mapper.h"
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -49,6 +53,13 @@ Eigen::Matrix3d rotateCovariance(const Eigen::Matrix3d& Rt, const Eigen::Matrix3
 inline int floorToInt(double x) {
   const int i = static_cast<int>(x);
   return i - (x < i ? 1 : 0);
+}
+
+// CPU time of the calling thread [ms] (POSIX).
+double threadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 const LandmarkFilterConfig& checked(const LandmarkFilterConfig& config) {
@@ -395,7 +406,7 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
   // Pass 1: retire landmarks, and list those in view by image row so that pass 2 walks the
   // row-major point buckets nearly in order (far fewer cache misses than slot order).
   visit_row_start_.assign(static_cast<std::size_t>(camera_.height) + 1, 0);
-  visit_slot_.clear();
+  visit_unsorted_.clear();
   visit_row_.clear();
   const std::int32_t num_slots = static_cast<std::int32_t>(landmarks_.size());
   for (std::int32_t slot = 0; slot < num_slots; ++slot) {
@@ -429,17 +440,24 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
       continue;
     }
     const int r = std::min(std::max(static_cast<int>(row), 0), camera_.height - 1);
-    visit_slot_.push_back(slot);
+    // Everything pass 2 needs, computed here while the landmarks are read in memory order; pass
+    // 2 then reads these records in image-row order, sequentially.
+    VisitRecord v;
+    v.pc = pc;
+    v.L = rotateCovariance(Rt, l.covariance);
+    v.slot = slot;
+    v.permanent = l.status == LandmarkStatus::kPermanent ? 1 : 0;
+    visit_unsorted_.push_back(v);
     visit_row_.push_back(r);
     ++visit_row_start_[r + 1];
   }
-  stats_.landmarks_in_view = visit_slot_.size();
+  stats_.landmarks_in_view = visit_unsorted_.size();
   for (int r = 0; r < camera_.height; ++r) {
     visit_row_start_[r + 1] += visit_row_start_[r];
   }
-  visit_order_.resize(visit_slot_.size());
-  for (std::size_t i = 0; i < visit_slot_.size(); ++i) {
-    visit_order_[visit_row_start_[visit_row_[i]]++] = visit_slot_[i];
+  visit_sorted_.resize(visit_unsorted_.size());
+  for (std::size_t i = 0; i < visit_unsorted_.size(); ++i) {
+    visit_sorted_[visit_row_start_[visit_row_[i]]++] = visit_unsorted_[i];
   }
 
   // Pass 2: association, Eq. (9)-(12). Raw pointers, see scanGate().
@@ -447,12 +465,11 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
   std::int32_t* const nearest = nearest_.data();
   std::uint8_t* const near_permanent = near_permanent_.data();
   const double inv_desc_var = inv_desc_var_;
-  for (const std::int32_t slot : visit_order_) {
-    const Landmark& l = landmarks_[slot];
-    const Eigen::Vector3d pc = Rt * (l.mean.cast<double>() - t);
-    const Eigen::Matrix3d L = rotateCovariance(Rt, l.covariance);
-
-    const std::uint8_t permanent = l.status == LandmarkStatus::kPermanent ? 1 : 0;
+  for (const VisitRecord& v : visit_sorted_) {
+    const std::int32_t slot = v.slot;
+    const Eigen::Vector3d& pc = v.pc;
+    const Eigen::Matrix3d& L = v.L;
+    const std::uint8_t permanent = v.permanent;
     double best_cost = std::numeric_limits<double>::infinity();
     double best_det = 1.0;
     std::int32_t best = -1;
@@ -469,7 +486,7 @@ void LandmarkFilter::associate(const Eigen::Isometry3d& T, bool use_descriptors,
         const float* dp = descriptors->data() + static_cast<std::size_t>(sorted_index_[s]) * dim;
         double dd = 0.0;
         for (std::size_t a = 0; a < dim; ++a) {
-          const double diff = static_cast<double>(dp[a]) - l.descriptor[a];
+          const double diff = static_cast<double>(dp[a]) - landmarks_[slot].descriptor[a];
           dd += diff * diff;
         }
         cost += dd * inv_desc_var;
@@ -604,6 +621,109 @@ void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (keep_mask[i]) out->push_back(points[i]);
   }
+}
+
+LandmarkStreamConfig LandmarkStreamConfig::forMapper(const SafetyMapperConfig& mapper) const {
+  LandmarkStreamConfig c = *this;
+  const double min_range = mapper.grid.min_range, max_range = mapper.grid.max_range;
+  c.filter.min_depth = std::max(min_range, 1e-3);
+  c.filter.max_depth = max_range;
+  if (!(c.filter.max_landmark_distance >= max_range)) c.filter.max_landmark_distance = max_range;
+  c.skip_stationary_frames = mapper.skip_stationary_frames;
+  c.stationary_translation = mapper.stationary_translation;
+  c.stationary_rotation_deg = mapper.stationary_rotation_deg;
+  return c;
+}
+
+std::string LandmarkStreamConfig::validate() const {
+  const std::string why = filter.validate();
+  if (!why.empty()) return why;
+  if (!std::isfinite(stationary_translation) || stationary_translation < 0.0 ||
+      stationary_translation > 100.0) {
+    return rangeMessage("stationary_translation", stationary_translation, "[0, 100] m");
+  }
+  if (!std::isfinite(stationary_rotation_deg) || stationary_rotation_deg < 0.0 ||
+      stationary_rotation_deg > 180.0) {
+    return rangeMessage("stationary_rotation_deg", stationary_rotation_deg, "[0, 180] deg");
+  }
+  return {};
+}
+
+namespace {
+const LandmarkStreamConfig& checkedStream(const LandmarkStreamConfig& config) {
+  const std::string why = config.validate();
+  if (!why.empty()) throw std::invalid_argument("LandmarkStreamConfig: " + why);
+  return config;
+}
+}  // namespace
+
+LandmarkStreamFilter::LandmarkStreamFilter(const LandmarkStreamConfig& config)
+    : config_(checkedStream(config)) {}
+
+void LandmarkStreamFilter::reset() {
+  if (filter_) filter_->clear();
+  stats_ = LandmarkFilterStats();
+  has_last_pose_ = false;
+}
+
+void LandmarkStreamFilter::permanentLandmarks(std::vector<Eigen::Vector3f>* out) const {
+  if (filter_) {
+    filter_->permanentLandmarks(out);
+  } else {
+    out->clear();
+  }
+}
+
+LandmarkStreamStatus LandmarkStreamFilter::apply(const StereoCameraModel& camera,
+                                                 const Eigen::Isometry3f& T_fixed_camera,
+                                                 double stamp, std::vector<Eigen::Vector3f>* points,
+                                                 std::string* error) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const double c0 = threadCpuMs();
+  const auto fail = [error](const std::string& why) {
+    if (error != nullptr) *error = "landmark filter: " + why;
+    return LandmarkStreamStatus::kRejected;
+  };
+  if (!std::isfinite(stamp)) return fail("the frame has no finite stamp");
+  if (!T_fixed_camera.matrix().allFinite()) return fail("the camera pose is not finite");
+  // 000 Sec. IV: a camera that has not moved repeats its mismatches; they must not confirm
+  // each other.
+  if (config_.skip_stationary_frames && has_last_pose_) {
+    const Eigen::Isometry3f delta = last_pose_.inverse() * T_fixed_camera;
+    const double dt = delta.translation().norm();
+    const double da = Eigen::AngleAxisf(delta.linear()).angle() * 180.0 / M_PI;
+    if (dt < config_.stationary_translation && da < config_.stationary_rotation_deg) {
+      return LandmarkStreamStatus::kStationary;
+    }
+  }
+  const bool same_camera = filter_ && camera.width == camera_.width &&
+                           camera.height == camera_.height && camera.fx == camera_.fx &&
+                           camera.fy == camera_.fy && camera.cx == camera_.cx &&
+                           camera.cy == camera_.cy && camera.cx_right == camera_.cx_right &&
+                           camera.baseline == camera_.baseline;
+  if (!same_camera) {
+    std::string why = StereoErrorModel::checkCamera(camera);
+    if (why.empty() && (camera.width <= 0 || camera.height <= 0)) {
+      why = "camera width and height must be > 0";
+    }
+    if (!why.empty()) return fail(why);
+    if (filter_) ++camera_changes_;
+    filter_ = std::make_unique<LandmarkFilter>(camera, config_.filter);  // checked: no throw
+    camera_ = camera;
+  }
+  last_pose_ = T_fixed_camera;
+  has_last_pose_ = true;
+  stats_ = filter_->update(*points, T_fixed_camera, stamp, &keep_);
+  // In place, order kept: the voxel grid sees the confirmed points as they came.
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    if (keep_[i]) (*points)[out++] = (*points)[i];
+  }
+  points->resize(out);
+  last_ms_ =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  last_cpu_ms_ = threadCpuMs() - c0;
+  return LandmarkStreamStatus::kFiltered;
 }
 
 }  // namespace stereo_safety_map

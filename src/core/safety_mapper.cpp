@@ -102,6 +102,14 @@ void SafetyMapper::reset() {
   frames_integrated_ = 0;
 }
 
+bool SafetyMapper::isStationary(const Eigen::Isometry3f& T_fixed_sensor) const {
+  if (!config_.skip_stationary_frames || !has_last_pose_) return false;
+  const Eigen::Isometry3f delta = last_pose_.inverse() * T_fixed_sensor;
+  const double dt = delta.translation().norm();
+  const double da = Eigen::AngleAxisf(delta.linear()).angle();
+  return dt < config_.stationary_translation && da < config_.stationary_rotation_deg * kDegToRad;
+}
+
 bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
                                   const Eigen::Isometry3f& T_fixed_sensor,
                                   const Eigen::Vector3f& robot_base_position, FrameResult* out) {
@@ -117,14 +125,7 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
   if (points_sensor.empty()) return skip(FrameStatus::kEmptyInput);
 
   // 000 Sec. IV: discard frames taken while the camera has not moved.
-  if (config_.skip_stationary_frames && has_last_pose_) {
-    const Eigen::Isometry3f delta = last_pose_.inverse() * T_fixed_sensor;
-    const double dt = delta.translation().norm();
-    const double da = Eigen::AngleAxisf(delta.linear()).angle();
-    if (dt < config_.stationary_translation && da < config_.stationary_rotation_deg * kDegToRad) {
-      return skip(FrameStatus::kStationary);
-    }
-  }
+  if (isStationary(T_fixed_sensor)) return skip(FrameStatus::kStationary);
 
   const Clock::time_point t0 = Clock::now();
   // Recentre on the robot before checking the camera: it must lie inside the window that the

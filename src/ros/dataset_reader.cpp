@@ -325,6 +325,7 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
                         StereoFrameProcessorConfig* c, std::vector<std::string>* unknown) {
   SafetyMapperConfig& m = c->mapper;
   DisparityPipelineConfig& dp = c->disparity;
+  LandmarkStreamConfig& lf = c->landmark_filter;
   // The disparity nodelet's texture_window_size 0 means "the block size" (config/disparity.yaml).
   int texture_window = -1;
   std::map<std::string, std::function<void(const YAML::Node&)>> table = {
@@ -385,6 +386,29 @@ std::string applyParams(const YAML::Node& root, const std::string& path,
        [&](const YAML::Node& n) { m.stationary_rotation_deg = n.as<double>(); }},
       {"scroll_with_robot", [&](const YAML::Node& n) { m.scroll_with_robot = n.as<bool>(); }},
       {"disparity_step", [&](const YAML::Node& n) { c->disparity_step = n.as<int>(); }},
+      // Landmark filter of 001 Sec. 4.2 in front of the grid (fusion_params.h names).
+      {"use_landmark_filter", [&](const YAML::Node& n) { lf.enabled = n.as<bool>(); }},
+      {"landmark_sigma_row",
+       [&](const YAML::Node& n) { lf.filter.error_model.sigma_row = n.as<double>(); }},
+      {"landmark_sigma_col",
+       [&](const YAML::Node& n) { lf.filter.error_model.sigma_col = n.as<double>(); }},
+      {"landmark_sigma_disparity",
+       [&](const YAML::Node& n) { lf.filter.error_model.sigma_disparity = n.as<double>(); }},
+      {"landmark_gate_chi2", [&](const YAML::Node& n) { lf.filter.gate_chi2 = n.as<double>(); }},
+      {"landmark_use_mahalanobis",
+       [&](const YAML::Node& n) { lf.filter.use_mahalanobis = n.as<bool>(); }},
+      {"landmark_euclidean_gate",
+       [&](const YAML::Node& n) { lf.filter.euclidean_gate = n.as<double>(); }},
+      {"landmark_min_matches", [&](const YAML::Node& n) { lf.filter.min_matches = n.as<int>(); }},
+      {"landmark_time_window",
+       [&](const YAML::Node& n) { lf.filter.time_window = n.as<double>(); }},
+      {"landmark_stale_time", [&](const YAML::Node& n) { lf.filter.stale_time = n.as<double>(); }},
+      {"landmark_max_landmarks",
+       [&](const YAML::Node& n) { lf.filter.max_landmarks = n.as<int>(); }},
+      {"landmark_max_search_radius_px",
+       [&](const YAML::Node& n) { lf.filter.max_search_radius_px = n.as<double>(); }},
+      {"landmark_max_distance",
+       [&](const YAML::Node& n) { lf.filter.max_landmark_distance = n.as<double>(); }},
       // Disparity stage (disparity_pipeline.h), for comparisons; the nodelets' disparity comes
       // from the disparity nodelet's own parameters.
       {"matcher",

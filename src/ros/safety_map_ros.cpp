@@ -1,6 +1,8 @@
 #include "stereo_safety_map/ros/safety_map_ros.h"
 
 #include "stereo_safety_map/ros/conversions.h"
+#include "stereo_safety_map/ros/fusion_params.h"
+#include "stereo_safety_map/ros/hybrid_conversions.h"
 
 #include <nav_msgs/OccupancyGrid.h>
 #include <octomap/OcTree.h>
@@ -61,6 +63,13 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
+  if (err.empty()) err = fromRosParam(pnh_, &landmark_config_);
+  if (err.empty()) {
+    // The filter sees the points the grid would use (001 Sec. 4.2 in front of 000 Sec. IV).
+    landmark_config_ = landmark_config_.forMapper(mapper_config_);
+    const std::string why = landmark_config_.validate();
+    if (!why.empty()) err = "invalid parameter in " + pnh_.getNamespace() + ": landmark_" + why;
+  }
   if (err.empty()) err = fromRosParam(pnh_, &cue_config_);
   if (!err.empty()) {
     config_error_ = err;
@@ -68,7 +77,10 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     diagnostics_->force_update();
     return;
   }
-  for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
+  std::vector<std::string> known = safetyMapParameterNames();
+  for (const std::string& p : landmarkParameterNames())
+    known.push_back(p);
+  for (const std::string& p : unknownParameters(pnh_, known)) {
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
   mapper_ = std::make_unique<SafetyMapper>(mapper_config_);  // validated above: does not throw
@@ -81,6 +93,14 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("planes", 1);
   points_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("occupied_points", 1);
   timings_pub_ = nh_.advertise<StageTimingsMsg>("stage_timings", 10);
+  if (landmark_config_.enabled) {
+    landmarks_ = std::make_unique<LandmarkStreamFilter>(landmark_config_);  // validated
+    landmarks_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("landmarks", 1);
+    if (ros_config_.input == "cloud") {
+      ROS_WARN_STREAM(name_ << ": use_landmark_filter needs input: disparity (the filter works "
+                               "in the image); clouds are not filtered");
+    }
+  }
   reset_srv_ = pnh_.advertiseService("reset", &SafetyMapRos::resetSrv, this);
   save_srv_ = pnh_.advertiseService("save", &SafetyMapRos::saveSrv, this);
 
@@ -396,12 +416,47 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     std::lock_guard<std::mutex> lock(core_mutex_);
     if (reset_for_time) {
       mapper_->reset();
+      if (landmarks_) landmarks_->reset();
       std::lock_guard<std::mutex> stats_lock(stats_mutex_);
       ++map_resets_;
       last_problem_ = "time went backwards: map reset";
       last_problem_time_ = ros::WallTime::now();
     }
     last_stamp_ = stamp;
+    // 001 Sec. 4.2: only points confirmed by permanent landmarks reach the grid. The filter
+    // sees the frames the grid integrates (it needs motion, 000 Sec. IV skips stationary ones).
+    if (landmarks_ && frame.disparity && !mapper_->isStationary(T_fixed_sensor)) {
+      const std::size_t before = points_.size();
+      std::string err;
+      const LandmarkStreamStatus st =
+          landmarks_->apply(camera_, T_fixed_sensor, stamp.toSec(), &points_, &err);
+      if (st == LandmarkStreamStatus::kRejected) {
+        reject("landmark filter", "dropped a disparity frame: " + err);
+        return;
+      }
+      if (st == LandmarkStreamStatus::kStationary) {  // the grid would skip it too
+        std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+        ++frames_stationary_;
+        return;
+      }
+      {
+        std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+        landmark_kept_last_ = before > 0 ? static_cast<double>(points_.size()) / before : 0.0;
+        landmark_ms_last_ = landmarks_->lastMs();
+        landmarks_permanent_ = landmarks_->stats().permanent;
+        if (points_.empty()) ++landmark_frames_empty_;
+      }
+      if (landmarks_pub_.getNumSubscribers() > 0) {
+        landmarks_->permanentLandmarks(&landmark_points_);
+        auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+        std_msgs::Header h;
+        h.stamp = stamp;
+        h.frame_id = ros_config_.fixed_frame;
+        pointsToCloud(landmark_points_, h, cloud.get());
+        landmarks_pub_.publish(cloud);
+      }
+      if (points_.empty()) return;  // no landmark permanent yet: nothing for the grid
+    }
     mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, &result);
     if (result.status == FrameStatus::kIntegrated) {
       robot_position_ = robot_position;
@@ -469,6 +524,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
   if (!mapper_) return false;
   std::lock_guard<std::mutex> lock(core_mutex_);
   mapper_->reset();
+  if (landmarks_) landmarks_->reset();
   {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
@@ -726,6 +782,13 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
             frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
   stat.addf("tf wait, mean [ms]", "%.1f",
             tf_wait_count_ > 0 ? tf_wait_ms_sum_ / tf_wait_count_ : 0.0);
+  stat.add("landmark filter (001 Sec. 4.2)", landmarks_ ? "on" : "off");
+  if (landmarks_) {
+    stat.addf("landmark filter: points kept, last frame [%]", "%.1f", 100.0 * landmark_kept_last_);
+    stat.add("landmark filter: permanent landmarks", landmarks_permanent_);
+    stat.add("landmark filter: frames without a confirmed point", landmark_frames_empty_);
+    stat.addf("landmark filter: time, last [ms]", "%.1f", landmark_ms_last_);
+  }
   diagnoseObstacleCue(stat);
   for (const auto& r : rejections_)
     stat.add("problem: " + r.first, r.second);

@@ -1,6 +1,7 @@
 // Tests of the landmark filter (001 Sec. 4.2): Kalman update, Mahalanobis association, false
 // positive removal, and the keep mask that gates the point stream.
 #include "stereo_safety_map/core/landmark_filter.h"
+#include "stereo_safety_map/core/safety_mapper.h"
 
 #include <gtest/gtest.h>
 
@@ -450,6 +451,118 @@ TEST(LandmarkFilter, BadInputIsSkippedWithoutCrashing) {
   std::vector<Eigen::Vector3f> out{Eigen::Vector3f::Zero()};
   applyKeepMask({Eigen::Vector3f::Zero()}, {1, 1}, &out);  // wrong mask size
   EXPECT_TRUE(out.empty());
+}
+
+// The stream filter in front of the voxel grid: confirmed points pass in their order, others
+// do not; bad frames leave the points untouched; a new camera restarts the filter.
+TEST(LandmarkStreamFilter, PassesConfirmedPointsOnlyAndRestartsForANewCamera) {
+  const StereoCameraModel cam = testCamera();
+  LandmarkStreamConfig config;
+  config.skip_stationary_frames = false;  // one pose throughout
+  LandmarkStreamFilter stream(config);
+  std::vector<Eigen::Vector3f> wall;
+  for (int i = 0; i < 10; ++i)
+    wall.emplace_back(-0.5f + 0.1f * i, 0.1f, 3.0f);
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 4; ++k) {
+    pts = wall;
+    pts.emplace_back(0.3f, -0.2f, 1.0f + 0.5f * k);  // a one-frame point, elsewhere each frame
+    std::string err;
+    ASSERT_EQ(stream.apply(cam, Eigen::Isometry3f::Identity(), 0.1 * k, &pts, &err),
+              LandmarkStreamStatus::kFiltered)
+        << err;
+    if (k < 3) {
+      EXPECT_TRUE(pts.empty()) << "frame " << k;  // min_matches = 3
+    }
+  }
+  ASSERT_EQ(pts.size(), wall.size());
+  for (std::size_t i = 0; i < wall.size(); ++i)
+    EXPECT_EQ(pts[i], wall[i]);  // in order, untouched
+  EXPECT_EQ(stream.stats().permanent, wall.size());
+  std::vector<Eigen::Vector3f> cloud;
+  stream.permanentLandmarks(&cloud);
+  EXPECT_EQ(cloud.size(), wall.size());
+
+  // Bad frames: refused with a reason, points untouched, landmarks kept.
+  pts = wall;
+  std::string err;
+  EXPECT_EQ(stream.apply(cam, Eigen::Isometry3f::Identity(), std::nan(""), &pts, &err),
+            LandmarkStreamStatus::kRejected);
+  EXPECT_NE(err.find("stamp"), std::string::npos);
+  EXPECT_EQ(pts.size(), wall.size());
+  StereoCameraModel broken = cam;
+  broken.baseline = 0.0;
+  EXPECT_EQ(stream.apply(broken, Eigen::Isometry3f::Identity(), 0.5, &pts, &err),
+            LandmarkStreamStatus::kRejected);
+  EXPECT_NE(err.find("baseline"), std::string::npos);
+  EXPECT_EQ(pts.size(), wall.size());
+  stream.permanentLandmarks(&cloud);
+  EXPECT_EQ(cloud.size(), wall.size());
+
+  // Another camera: the landmarks (kept in its image) start again.
+  StereoCameraModel other = cam;
+  other.fx = other.fy = 400.0;
+  pts = wall;
+  ASSERT_EQ(stream.apply(other, Eigen::Isometry3f::Identity(), 0.6, &pts, &err),
+            LandmarkStreamStatus::kFiltered)
+      << err;
+  EXPECT_TRUE(pts.empty());
+  EXPECT_EQ(stream.cameraChanges(), 1u);
+  EXPECT_EQ(stream.stats().permanent, 0u);
+}
+
+// A camera that does not move repeats its mismatches frame after frame; they must not confirm
+// each other (001: noise is removed "using motion"). Only moving frames count.
+TEST(LandmarkStreamFilter, StationaryFramesDoNotConfirmTheirOwnPoints) {
+  const StereoCameraModel cam = testCamera();
+  LandmarkStreamFilter stream;  // skips frames that moved < 2 cm and < 1 deg
+  const std::vector<Eigen::Vector3f> ghost{Eigen::Vector3f(0.1f, 0.1f, 2.0f)};
+  std::vector<Eigen::Vector3f> pts;
+  for (int k = 0; k < 6; ++k) {
+    pts = ghost;
+    const LandmarkStreamStatus st =
+        stream.apply(cam, Eigen::Isometry3f::Identity(), 0.1 * k, &pts, nullptr);
+    EXPECT_EQ(st, k == 0 ? LandmarkStreamStatus::kFiltered : LandmarkStreamStatus::kStationary);
+    EXPECT_TRUE(pts.empty() || st == LandmarkStreamStatus::kStationary);
+  }
+  EXPECT_EQ(stream.stats().permanent, 0u);
+  // Moving 5 cm a frame, a static point is confirmed after min_matches frames.
+  const Eigen::Vector3f world(0.1f, 0.1f, 2.0f);
+  for (int k = 1; k <= 3; ++k) {
+    Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
+    T.translation().z() = 0.05f * k;
+    pts = {T.inverse() * world};
+    ASSERT_EQ(stream.apply(cam, T, 0.6 + 0.1 * k, &pts, nullptr), LandmarkStreamStatus::kFiltered);
+  }
+  EXPECT_EQ(pts.size(), 1u);
+  EXPECT_EQ(stream.stats().permanent, 1u);
+  // After a reset the next frame counts as the first, whatever the pose.
+  stream.reset();
+  pts = ghost;
+  EXPECT_EQ(stream.apply(cam, Eigen::Isometry3f::Identity(), 2.0, &pts, nullptr),
+            LandmarkStreamStatus::kFiltered);
+}
+
+TEST(LandmarkStreamConfig, ForMapperUsesTheGridsRangeAndFrameThresholds) {
+  LandmarkStreamConfig c;
+  SafetyMapperConfig m;
+  m.grid.min_range = 0.0;
+  m.grid.max_range = 12.0;
+  m.skip_stationary_frames = false;
+  m.stationary_translation = 0.3;
+  const LandmarkStreamConfig r = c.forMapper(m);
+  EXPECT_GT(r.filter.min_depth, 0.0);
+  EXPECT_DOUBLE_EQ(r.filter.max_depth, 12.0);
+  EXPECT_GE(r.filter.max_landmark_distance, 12.0);
+  EXPECT_FALSE(r.skip_stationary_frames);
+  EXPECT_DOUBLE_EQ(r.stationary_translation, 0.3);
+  EXPECT_EQ(r.validate(), "");
+  c.filter.gate_chi2 = -1.0;
+  EXPECT_NE(c.validate().find("gate_chi2"), std::string::npos);
+  EXPECT_THROW(LandmarkStreamFilter{c}, std::invalid_argument);
+  c = LandmarkStreamConfig();
+  c.stationary_rotation_deg = -1.0;
+  EXPECT_NE(c.validate().find("stationary_rotation_deg"), std::string::npos);
 }
 
 TEST(LandmarkFilter, ConfigValidation) {

@@ -134,6 +134,111 @@ TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationar
   EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
 }
 
+// 001 Sec. 4.2 in front of the grid: a blob of mismatched pixels that appears in one place for
+// one frame only (a ghost 0.7 m in front of the camera, where the floor is 2 m and more away)
+// reaches the mapper without the landmark filter and never with it; the floor does.
+TEST(StereoFrameProcessor, LandmarkFilterKeepsOneFrameGhostsFromTheGrid) {
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat floor = floorDisparity(head);
+  const StereoCameraModel cam = cameraOf(head);
+  const float ghost_d = static_cast<float>(cam.disparityFromDepth(0.7));
+  for (bool filter : {false, true}) {
+    StereoFrameProcessorConfig c;
+    c.mapper = singleFrameMapperConfig(c.mapper, 3.0);  // a map from few frames
+    c.landmark_filter.enabled = filter;
+    StereoFrameProcessor p(c);
+    std::size_t ghosts_to_grid = 0, floor_to_grid = 0;
+    for (int k = 0; k < 10; ++k) {
+      cv::Mat d = floor.clone();
+      const int x0 = 20 + (k * 97) % (head.width - 60), y0 = 120 + (k * 37) % 80;
+      d(cv::Rect(x0, y0, 16, 16)).setTo(ghost_d);
+      // The robot drives 5 cm a frame: every frame is integrated.
+      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();
+      base.translation().x() = 0.05 * k;
+      const Eigen::Isometry3f T = (base * head.baseToLeftOptical()).cast<float>();
+      StereoFrameResult r;
+      std::string err;
+      const bool ok = p.processDisparity(d, cam, T, base.translation().cast<float>(), &r, &err,
+                                         1000.0 + 0.1 * k);
+      EXPECT_EQ(r.landmark_filter_ran, filter);
+      if (filter && k < c.landmark_filter.filter.min_matches) {
+        // No landmark is permanent yet: nothing reaches the grid.
+        EXPECT_FALSE(ok);
+        EXPECT_EQ(r.mapper.status, FrameStatus::kEmptyInput);
+        EXPECT_EQ(r.points, 0u);
+        continue;
+      }
+      ASSERT_TRUE(ok) << "frame " << k << ": " << err;
+      EXPECT_EQ(r.points, p.points().size());
+      EXPECT_LE(r.points, r.points_reprojected);
+      for (const Eigen::Vector3f& q : p.points()) {
+        if (q.z() < 1.0f) {
+          ++ghosts_to_grid;
+        } else {
+          ++floor_to_grid;
+        }
+      }
+    }
+    if (filter) {
+      EXPECT_EQ(ghosts_to_grid, 0u);
+      EXPECT_GT(p.landmarkFilter().stats().permanent, 100u);
+    } else {
+      EXPECT_EQ(ghosts_to_grid, 10u * 16u * 16u);
+    }
+    EXPECT_GT(floor_to_grid, 10000u);
+    const SafetyMap& map = p.mapper().safetyMap();
+    ASSERT_GE(map.robot_segment, 0);
+    EXPECT_EQ(map.segments[map.robot_segment].label, SafetyLabel::kLevel);
+  }
+}
+
+TEST(StereoFrameProcessor, LandmarkFilterSkipsStationaryFramesAndNeedsAStamp) {
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat floor = floorDisparity(head);
+  StereoFrameProcessorConfig c;
+  c.landmark_filter.enabled = true;
+  StereoFrameProcessor p(c);
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  StereoFrameResult r;
+  std::string err;
+  EXPECT_FALSE(
+      p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err));  // no stamp
+  EXPECT_NE(err.find("stamp"), std::string::npos) << err;
+  // Standing still before the first map: only the first frame reaches the filter, the others
+  // are stationary (they would confirm each other's points).
+  for (int k = 0; k < 4; ++k) {
+    p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err, -1.0 + 0.1 * k);
+    EXPECT_EQ(r.landmark_filter_ran, k == 0) << k;
+    if (k > 0) {
+      EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+    }
+  }
+  EXPECT_EQ(p.landmarkFilter().stats().permanent, 0u);
+  EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
+  p.reset();
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Isometry3f moved = T;
+    moved.translation().x() += 0.05f * k;
+    p.processDisparity(floor, cameraOf(head), moved, Eigen::Vector3f(0.05f * k, 0.f, 0.f), &r, &err,
+                       0.1 * k);
+  }
+  ASSERT_EQ(r.mapper.status, FrameStatus::kIntegrated) << err;
+  const std::size_t permanent = p.landmarkFilter().stats().permanent;
+  // The camera stops: the filter does not see the frame (a stationary camera would confirm its
+  // own mismatches), the mapper skips it.
+  Eigen::Isometry3f still = T;
+  still.translation().x() += 0.15f;
+  EXPECT_FALSE(p.processDisparity(floor, cameraOf(head), still, Eigen::Vector3f(0.15f, 0.f, 0.f),
+                                  &r, &err, 0.5));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+  EXPECT_FALSE(r.landmark_filter_ran);
+  EXPECT_EQ(p.landmarkFilter().stats().permanent, permanent);
+  p.reset();
+  std::vector<Eigen::Vector3f> cloud;
+  p.landmarkFilter().permanentLandmarks(&cloud);
+  EXPECT_TRUE(cloud.empty());
+}
+
 TEST(StereoFrameProcessor, ImagesAndTheirDisparityGiveTheSameMap) {
   // The evaluator runs the images; the nodelet gets a disparity image. Same disparity, same map.
   const ds::StereoHeadConfig head = smallHead();

@@ -48,6 +48,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -215,7 +216,15 @@ class LandmarkFilter {
   std::vector<std::uint8_t> near_permanent_;  // in the gate of a landmark permanent at scan time
   std::vector<std::uint8_t> covered_;         // in the gate of a landmark started in this frame
   std::vector<std::int32_t> associations_;
-  std::vector<std::int32_t> visit_slot_, visit_row_, visit_row_start_, visit_order_;
+  // A landmark in view as pass 2 of associate() needs it: camera-frame mean and covariance.
+  struct VisitRecord {
+    Eigen::Vector3d pc;
+    Eigen::Matrix3d L;
+    std::int32_t slot;
+    std::uint8_t permanent;
+  };
+  std::vector<VisitRecord> visit_unsorted_, visit_sorted_;  // slot order, image-row order
+  std::vector<std::int32_t> visit_row_, visit_row_start_;
   LandmarkFilterStats stats_;
 };
 
@@ -223,5 +232,92 @@ class LandmarkFilter {
 /// `out` is reused; a mask of the wrong size copies nothing.
 void applyKeepMask(const std::vector<Eigen::Vector3f>& points,
                    const std::vector<std::uint8_t>& keep_mask, std::vector<Eigen::Vector3f>* out);
+
+// ---------------------------------------------------------------------------------------------
+// The landmark filter as a filter of the point stream before the voxel grid.
+//
+// 001 Sec. 4.2 builds its 3D model from permanent landmarks only. Used in front of paper 000's
+// voxel grid, a frame's point passes when it lies in the gate of a landmark that is permanent
+// after the frame's update (LandmarkFilter's keep mask): points that no landmark has confirmed
+// over min_matches frames within time_window, i.e. one-frame mismatches, never reach the grid.
+// The first frames (before any landmark is permanent) pass nothing. StereoFrameProcessor (the
+// offline tools) and the safety-map nodelet share this class, so that both filter alike.
+//
+// The filter needs frames taken from different poses (001: "removing noise from dense stereo
+// data using motion"): a mismatch repeats in every frame of a stationary camera and would be
+// confirmed. The stream filter therefore skips frames taken while the camera has not moved since
+// the last frame it used, with the voxel grid's thresholds (000 Sec. IV), also before the grid has
+// integrated anything; the caller drops such frames, as the grid would.
+
+struct SafetyMapperConfig;
+
+/// Whether and how the stream is filtered (a parameter of the safety-map pipeline).
+struct LandmarkStreamConfig {
+  bool enabled = false;  ///< off: 000's pipeline as published; on: 001's filter in front of it
+  LandmarkFilterConfig filter;
+  /// Frames from a camera that moved less than both thresholds since the last frame the filter
+  /// used are skipped (000 Sec. IV's rule for the grid; forMapper() copies the grid's values).
+  bool skip_stationary_frames = true;
+  double stationary_translation = 0.02;  ///< [m], [0, 100]
+  double stationary_rotation_deg = 1.0;  ///< [deg], [0, 180]
+
+  /// This configuration for the voxel grid it feeds: the filter's depth range is the grid's
+  /// [min_range, max_range] (min_depth at least 1 mm; max_landmark_distance raised to max_range
+  /// when smaller) and stationary frames are those the mapper skips.
+  LandmarkStreamConfig forMapper(const SafetyMapperConfig& mapper) const;
+  /// Empty when valid (also while disabled), else why not.
+  std::string validate() const;
+};
+
+/// What LandmarkStreamFilter::apply() did with a frame.
+enum class LandmarkStreamStatus : std::uint8_t {
+  kFiltered = 0,    ///< points filtered (possibly to none: no landmark is permanent yet)
+  kStationary = 1,  ///< the camera has not moved: frame not used, to be dropped by the caller
+  kRejected = 2,    ///< unusable camera, non-finite pose or stamp: frame not used
+};
+
+class LandmarkStreamFilter {
+ public:
+  /// Throws std::invalid_argument when config.validate() is not empty.
+  explicit LandmarkStreamFilter(const LandmarkStreamConfig& config = LandmarkStreamConfig());
+
+  /// Runs the filter on one frame and removes from `*points` (camera frame, e.g. from
+  /// reprojectDisparity) every point that no permanent landmark confirms; the order of the kept
+  /// points is preserved. `camera` is the frame's camera (a change of geometry restarts the
+  /// filter: landmarks live in image coordinates). kStationary and kRejected (with *error set)
+  /// leave *points untouched; the caller drops the frame.
+  LandmarkStreamStatus apply(const StereoCameraModel& camera,
+                             const Eigen::Isometry3f& T_fixed_camera, double stamp,
+                             std::vector<Eigen::Vector3f>* points, std::string* error = nullptr);
+
+  /// Forgets every landmark (the next frame starts afresh).
+  void reset();
+
+  /// Stats of the last apply() that filtered (empty before the first).
+  const LandmarkFilterStats& stats() const { return stats_; }
+  /// Wall time of the last apply() [ms].
+  double lastMs() const { return last_ms_; }
+  /// CPU time of the calling thread in the last apply() [ms] (less disturbed by a busy machine
+  /// than the wall time).
+  double lastCpuMs() const { return last_cpu_ms_; }
+  /// The filter (null before the first frame).
+  const LandmarkFilter* filter() const { return filter_.get(); }
+  /// Means of the permanent landmarks (fixed frame), the filter's own output; `out` is reused.
+  void permanentLandmarks(std::vector<Eigen::Vector3f>* out) const;
+  /// Times the filter was restarted for a new camera geometry.
+  std::size_t cameraChanges() const { return camera_changes_; }
+
+ private:
+  LandmarkStreamConfig config_;
+  std::unique_ptr<LandmarkFilter> filter_;
+  StereoCameraModel camera_;
+  bool has_last_pose_ = false;
+  Eigen::Isometry3f last_pose_ = Eigen::Isometry3f::Identity();
+  std::vector<std::uint8_t> keep_;
+  LandmarkFilterStats stats_;
+  double last_ms_ = 0.0;
+  double last_cpu_ms_ = 0.0;
+  std::size_t camera_changes_ = 0;
+};
 
 }  // namespace stereo_safety_map

@@ -98,6 +98,12 @@ class SafetyMapper {
                       const Eigen::Isometry3f& T_fixed_sensor,
                       const Eigen::Vector3f& robot_base_position, FrameResult* out = nullptr);
 
+  /// Whether integrateFrame() would skip a frame from `T_fixed_sensor` as stationary (000 Sec.
+  /// IV): skipping is on, a frame was integrated before, and the camera has moved less than both
+  /// thresholds since. Lets a filter in front of the grid (LandmarkStreamFilter) see the same
+  /// frames as the grid.
+  bool isStationary(const Eigen::Isometry3f& T_fixed_sensor) const;
+
   /// Height map, segmentation, plane fit and labelling of the current grid for a robot at
   /// `robot_base_position` (no grid update). A non-finite position gives a map with every cell
   /// Unknown and no segments.

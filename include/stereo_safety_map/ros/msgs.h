@@ -12,6 +12,9 @@
 #ifdef STEREO_SAFETY_MAP_MESSAGE_SAFETYMAP_H
 #error "include stereo_safety_map/ros/msgs.h instead of stereo_safety_map/SafetyMap.h"
 #endif
+#ifdef STEREO_SAFETY_MAP_MESSAGE_HYBRIDSAFETYMAP_H
+#error "include stereo_safety_map/ros/msgs.h instead of stereo_safety_map/HybridSafetyMap.h"
+#endif
 
 // The messages' own dependencies first, so that the renaming below reaches nothing but the two
 // message headers.
@@ -28,3 +31,8 @@
 #include <stereo_safety_map/StageTimings.h>
 #undef SafetyMap
 #undef StageTimings
+// HybridSafetyMap.msg (paper 001's hybrid map) likewise meets core/hybrid_safety_map.h's
+// HybridSafetyMap: the message is HybridSafetyMapMsg here.
+#define HybridSafetyMap HybridSafetyMapMsg
+#include <stereo_safety_map/HybridSafetyMap.h>
+#undef HybridSafetyMap

@@ -15,6 +15,7 @@
 // are thread-safe in roscpp.
 #pragma once
 
+#include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
@@ -136,6 +137,7 @@ class SafetyMapRos {
   ros::Publisher markers_pub_;
   ros::Publisher points_pub_;
   ros::Publisher timings_pub_;
+  ros::Publisher landmarks_pub_;  ///< permanent landmarks (001 Sec. 4.2), with the filter on
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -166,6 +168,10 @@ class SafetyMapRos {
   // The core (guarded by core_mutex_).
   std::mutex core_mutex_;
   std::unique_ptr<SafetyMapper> mapper_;
+  /// 001's landmark filter in front of the grid (~use_landmark_filter; null when off).
+  LandmarkStreamConfig landmark_config_;
+  std::unique_ptr<LandmarkStreamFilter> landmarks_;
+  std::vector<Eigen::Vector3f> landmark_points_;
   Eigen::Vector3f robot_position_ = Eigen::Vector3f::Zero();
 
   // Counters and diagnostics (guarded by stats_mutex_).
@@ -180,6 +186,10 @@ class SafetyMapRos {
   std::map<std::string, std::uint64_t> rejections_;   ///< by reason
   std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
   std::uint64_t non_finite_values_ = 0;               ///< NaN / inf pixels or points skipped
+  std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
+  double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
+  double landmark_ms_last_ = 0.0;
+  std::size_t landmarks_permanent_ = 0;
   std::string last_problem_;
   ros::WallTime last_problem_time_;
   double processing_ms_last_ = 0.0;
