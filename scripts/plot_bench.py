@@ -25,7 +25,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 # (group title, [stage ids]) in the order of panel (a); missing stages are skipped.
 COMPARISON_GROUPS = [
-    ("disparity BM", ["disp.ours_bm", "disp.ours_bm_nofilters", "disp.opencv_bm", "disp.sip_bm",
+    ("disparity BM", ["disp.ours_bm", "disp.ours_bm_parallel", "disp.ours_bm_nofilters",
+                      "disp.opencv_bm", "disp.sip_bm",
                       "disp.sip_bm_own_filters"]),
     ("disparity SGBM", ["disp.ours_sgbm", "disp.opencv_sgbm", "disp.sip_sgbm"]),
     ("reprojection", ["reproject.ours", "reproject.image_geometry"]),
@@ -39,6 +40,7 @@ COMPARISON_GROUPS = [
 
 SHORT = {
     "disp.ours_bm": "ours BM + filters",
+    "disp.ours_bm_parallel": "ours BM + filters, 2 threads (wall)",
     "disp.ours_bm_nofilters": "ours BM, no filters",
     "disp.opencv_bm": "OpenCV StereoBM",
     "disp.sip_bm": "stereo_image_proc BM",
