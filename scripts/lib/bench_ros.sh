@@ -2,6 +2,7 @@
 # by scripts/lib/ros_replay_probe.py. Sourced by scripts/bench (uses its option variables: out,
 # quick, build, rate, bag, variants, cores); do not run it.
 # shellcheck shell=bash
+# shellcheck disable=SC2154  # out, quick, build, rate, bag, variants, cores: set by scripts/bench
 
 # A TCP port nobody listens on (for this replay's own roscore: never the shared 11311).
 ssm_free_port() {
@@ -20,8 +21,8 @@ ssm_ros_replay() {
   export ROS_LOG_DIR="$logs"
   roscore -p "$port" > "$logs/roscore.log" 2>&1 &
   local core_pid=$!
-  local i
-  for i in $(seq 1 100); do
+  local _
+  for _ in $(seq 1 100); do
     rosparam list > /dev/null 2>&1 && break
     sleep 0.2
   done

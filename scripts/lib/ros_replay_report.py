@@ -41,20 +41,28 @@ def sip_params(disparity_yaml):
     }
 
 
+def disparity_drops(run):
+    for name, d in run.get("diagnostics", {}).items():
+        if name.endswith(": disparity"):
+            v = d["values"].get("frames dropped (input faster than processing)")
+            return v if v is not None else "n/a"
+    return "n/a"
+
+
 def delay_row(name, run, meta):
     w = run.get("window", {})
     d = (run.get("outputs", {}).get(meta.get("map_topic", "/safety_map")) or {}).get("delay_ms")
     c = run.get("safety_map_counters", {})
     cpu = run.get("manager_cpu", {})
     rss = run.get("manager_rss_mb", {})
-    return "| %s | %s | %s | %d / %d | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+    return "| %s | %s | %s | %d / %d | %s | %s | %s / %s | %s | %s | %s | %s | %s |" % (
         name, meta.get("cores", "2 (shared)"), fmt(w.get("input_rate_hz")),
         run.get("maps", 0), w.get("images", 0), c.get("stationary", "n/a"),
-        run.get("frames_lost", "n/a"), c.get("dropped", "n/a"),
+        run.get("frames_lost", "n/a"), disparity_drops(run), c.get("dropped", "n/a"),
         fmt(d and d.get("median")), fmt(d and d.get("p95")), fmt(d and d.get("max")),
-        fmt(cpu.get("cpu_ms_per_image")),
-        "%s -> %s (max %s)" % (fmt(rss.get("at_first_image"), 0), fmt(rss.get("at_window_end"), 0),
-                               fmt(rss.get("max"), 0)) if rss else "n/a")
+        fmt(cpu.get("cores_used"), 2),
+        "%s -> %s" % (fmt(rss.get("at_first_image"), 0), fmt(rss.get("at_window_end"), 0))
+        if rss else "n/a")
 
 
 def report(runs, metas, overall):
@@ -68,9 +76,10 @@ def report(runs, metas, overall):
                    overall.get("bag"), overall.get("rate"),
                    overall.get("load_start"), overall.get("load_end"), overall.get("nproc"),
                    overall.get("tail")))
-    out.append("| variant | manager cores | input [Hz] | maps / images | stationary (no map by "
-               "design) | frames lost | safety-map drops | delay median [ms] | delay p95 [ms] | "
-               "delay max [ms] | manager CPU per image [ms] | manager RSS [MB] |")
+    out.append("| variant | manager on | input [Hz] | maps / images | stationary (no map by "
+               "design) | frames lost | of which dropped by disparity / safety map | delay "
+               "median [ms] | delay p95 [ms] | delay max [ms] | manager CPU [cores] | manager RSS "
+               "first image -> end [MB] |")
     out.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for run, meta in zip(runs, metas):
         out.append(delay_row(meta["name"], run, meta))

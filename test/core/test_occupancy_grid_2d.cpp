@@ -626,7 +626,7 @@ TEST_F(GhostAndPole, SpikeRemovalDeletesTheGhostObstacleKeepsThePole) {
   EXPECT_TRUE(raw.isOccupied(raw.indexOf(pole_xy))) << pole_xy.transpose();
 
   cv::Mat filtered = image.clone();
-  SpikeRemovalConfig spikes;  // 002 Sec. 4.2: |d_j - d_i| <= 1, surfaces below 200 px go
+  SpikeRemovalConfig spikes;     // 002 Sec. 4.2: |d_j - d_i| <= 1, surfaces below 200 px go
   spikes.min_region_size = 200;  // the 12 x 12 px ghost; the default (50 px) keeps it
   ASSERT_EQ(filterSpikes(spikes, &filtered), 144);
   const OccupancyGrid2D clean = map(filtered);
