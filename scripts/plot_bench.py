@@ -38,9 +38,12 @@ COMPARISON_GROUPS = [
     ("seg + fit + label", ["map_dense.seg_fit_label", "map.seg_fit_label"]),
 ]
 
+# Stages whose bar is the wall time (they use a second thread).
+WALL_BARS = {"disp.ours_bm_parallel"}
+
 SHORT = {
     "disp.ours_bm": "ours BM + filters",
-    "disp.ours_bm_parallel": "ours BM + filters, 2 threads (wall)",
+    "disp.ours_bm_parallel": "ours BM + filters, 2 threads (bar: wall)",
     "disp.ours_bm_nofilters": "ours BM, no filters",
     "disp.opencv_bm": "OpenCV StereoBM",
     "disp.sip_bm": "stereo_image_proc BM",
@@ -95,9 +98,11 @@ def plot_comparisons(ax, stages):
         group_ticks.append((y, title))
         for i in present:
             s = by_id[i]
-            cpu_med = stat(s, "cpu_ms", "median")
-            cpu_min = stat(s, "cpu_ms", "min")
-            cpu_max = stat(s, "cpu_ms", "max")
+            # Work on a second thread is not in the measuring thread's CPU time: wall bars.
+            key = "wall_ms" if i in WALL_BARS else "cpu_ms"
+            cpu_med = stat(s, key, "median")
+            cpu_min = stat(s, key, "min")
+            cpu_max = stat(s, key, "max")
             wall_med = stat(s, "wall_ms", "median")
             colour = "tab:blue" if s.get("impl") == "ours" else "tab:orange"
             if positive(cpu_med):
