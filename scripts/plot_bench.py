@@ -25,7 +25,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 # (group title, [stage ids]) in the order of panel (a); missing stages are skipped.
 COMPARISON_GROUPS = [
-    ("disparity BM", ["disp.ours_bm", "disp.ours_bm_nofilters", "disp.opencv_bm", "disp.sip_bm",
+    ("disparity BM", ["disp.ours_bm", "disp.ours_bm_parallel", "disp.ours_bm_nofilters",
+                      "disp.opencv_bm", "disp.sip_bm",
                       "disp.sip_bm_own_filters"]),
     ("disparity SGBM", ["disp.ours_sgbm", "disp.opencv_sgbm", "disp.sip_sgbm"]),
     ("reprojection", ["reproject.ours", "reproject.image_geometry"]),
@@ -37,8 +38,12 @@ COMPARISON_GROUPS = [
     ("seg + fit + label", ["map_dense.seg_fit_label", "map.seg_fit_label"]),
 ]
 
+# Stages whose bar is the wall time (they use a second thread).
+WALL_BARS = {"disp.ours_bm_parallel"}
+
 SHORT = {
     "disp.ours_bm": "ours BM + filters",
+    "disp.ours_bm_parallel": "ours BM + filters, 2 threads (bar: wall)",
     "disp.ours_bm_nofilters": "ours BM, no filters",
     "disp.opencv_bm": "OpenCV StereoBM",
     "disp.sip_bm": "stereo_image_proc BM",
@@ -93,9 +98,11 @@ def plot_comparisons(ax, stages):
         group_ticks.append((y, title))
         for i in present:
             s = by_id[i]
-            cpu_med = stat(s, "cpu_ms", "median")
-            cpu_min = stat(s, "cpu_ms", "min")
-            cpu_max = stat(s, "cpu_ms", "max")
+            # Work on a second thread is not in the measuring thread's CPU time: wall bars.
+            key = "wall_ms" if i in WALL_BARS else "cpu_ms"
+            cpu_med = stat(s, key, "median")
+            cpu_min = stat(s, key, "min")
+            cpu_max = stat(s, key, "max")
             wall_med = stat(s, "wall_ms", "median")
             colour = "tab:blue" if s.get("impl") == "ours" else "tab:orange"
             if positive(cpu_med):

@@ -134,6 +134,52 @@ std::string DisparityPipelineConfig::validate() const {
 }
 
 // ------------------------------------------------------------------------------------------------
+namespace detail {
+
+TaskThread::~TaskThread() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void TaskThread::start(void (*fn)(void*), void* arg) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    fn_ = fn;
+    arg_ = arg;
+    busy_ = true;
+  }
+  if (!thread_.joinable()) thread_ = std::thread(&TaskThread::loop, this);
+  cv_.notify_all();
+}
+
+void TaskThread::wait() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  cv_.wait(lock, [this] { return !busy_; });
+}
+
+void TaskThread::loop() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    cv_.wait(lock, [this] { return stop_ || (busy_ && fn_ != nullptr); });
+    if (stop_) return;
+    void (*fn)(void*) = fn_;
+    void* arg = arg_;
+    fn_ = nullptr;
+    lock.unlock();
+    fn(arg);  // must not throw
+    lock.lock();
+    busy_ = false;
+    cv_.notify_all();
+  }
+}
+
+}  // namespace detail
+
+// ------------------------------------------------------------------------------------------------
 bool DisparityPipeline::MatcherKey::operator==(const MatcherKey& o) const {
   return type == o.type && min_disparity == o.min_disparity &&
          num_disparities == o.num_disparities && block_size == o.block_size &&
@@ -221,6 +267,51 @@ bool DisparityPipeline::toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat
 void DisparityPipeline::convertMatcherOutput(const cv::Mat& raw, cv::Mat* disparity) const {
   raw.convertTo(*disparity, CV_32F, 1.0 / cv::StereoMatcher::DISP_SCALE);
   cv::threshold(*disparity, *disparity, 0.0, 0.0, cv::THRESH_TOZERO);
+}
+
+// Right-to-left disparities from the mirrored pair. Mirroring turns "right pixel x_r matches left
+// pixel x_r + d" into an ordinary left-to-right search. The pair is padded on the side where the
+// matcher leaves no result (the first min_disparity + num_disparities + block_size / 2 columns),
+// so that every right pixel gets a disparity; candidates falling into the padding lie outside
+// the left image. Touches only the right-to-left buffers, so that it can run beside the
+// left-to-right matching and the texture test (parallel_left_right).
+void DisparityPipeline::matchRightToLeft(const cv::Mat& left_grey, const cv::Mat& right_grey,
+                                         DisparityStepStats* stats) {
+  const Clock::time_point t = Clock::now();
+  const cv::Size size = left_grey.size();
+  const int pad = config_.min_disparity + config_.num_disparities + config_.block_size / 2;
+  const int w = size.width;
+  mirrored_left_.create(size.height, w + pad, CV_8UC1);
+  mirrored_right_.create(size.height, w + pad, CV_8UC1);
+  cv::Mat roi_left = mirrored_left_.colRange(pad, pad + w);
+  cv::Mat roi_right = mirrored_right_.colRange(pad, pad + w);
+  cv::flip(right_grey, roi_left, 1);
+  cv::flip(left_grey, roi_right, 1);
+  replicateLeftColumns<std::uint8_t>(pad, &mirrored_left_);
+  replicateLeftColumns<std::uint8_t>(pad, &mirrored_right_);
+  right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
+  cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
+  convertMatcherOutput(raw_right_, &right_disparity_);
+  stats->ran = true;
+  stats->valid_before = 0;
+  stats->valid_after = cv::countNonZero(right_disparity_);
+  stats->ms = msSince(t);
+}
+
+void DisparityPipeline::matchRightToLeftTask(void* self) {
+  auto* p = static_cast<DisparityPipeline*>(self);
+  try {
+    p->matchRightToLeft(*p->task_left_, *p->task_right_, &p->task_stats_);
+  } catch (const cv::Exception& e) {
+    p->right_failed_ = true;
+    p->right_error_ = std::string("OpenCV error: ") + e.what();
+  } catch (const std::exception& e) {
+    p->right_failed_ = true;
+    p->right_error_ = std::string("error: ") + e.what();
+  } catch (...) {
+    p->right_failed_ = true;
+    p->right_error_ = "unknown error in the right-to-left matcher";
+  }
 }
 
 void DisparityPipeline::markRemoved(const cv::Mat& disparity, DisparityRemoval reason) {
@@ -316,6 +407,26 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     pre.valid_before = pre.valid_after = 0;
     pre.ms = msSince(start);
 
+    // --- 3 (started early). The right-to-left matcher of the left-right check, on the helper
+    // thread while this one runs steps 1 and 2. Every path out of this block waits for it: it
+    // reads the grey images and writes the right-to-left buffers.
+    right_disparity_.release();
+    const bool parallel = config_.enable_left_right && config_.parallel_left_right;
+    struct Join {
+      detail::TaskThread* task;
+      ~Join() {
+        if (task != nullptr) task->wait();
+      }
+    } join{nullptr};
+    if (parallel) {
+      task_left_ = left_grey;
+      task_right_ = right_grey;
+      task_stats_ = DisparityStepStats();
+      right_failed_ = false;
+      task_.start(&DisparityPipeline::matchRightToLeftTask, this);
+      join.task = &task_;
+    }
+
     // --- 1. matching; the uniqueness test (002, Sec. 2.2) runs inside the matcher.
     cv::Mat& disparity = *disparity_out;
     Clock::time_point t = Clock::now();
@@ -379,32 +490,17 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       return fail("texture validation rejected its input");
     }
 
-    // --- 3. left-right consistency: right-to-left disparities from the mirrored pair. Mirroring
-    // turns "right pixel x_r matches left pixel x_r + d" into an ordinary left-to-right search.
-    // The pair is padded on the side where the matcher leaves no result (the first
-    // min_disparity + num_disparities + block_size / 2 columns), so that every right pixel gets
-    // a disparity; candidates falling into the padding lie outside the left image.
-    right_disparity_.release();
+    // --- 3. left-right consistency (002 Sec. 4.1, ref. [7]) against the right-to-left match.
     if (config_.enable_left_right) {
-      t = Clock::now();
-      const int pad = config_.min_disparity + config_.num_disparities + config_.block_size / 2;
-      const int w = size.width;
-      mirrored_left_.create(size.height, w + pad, CV_8UC1);
-      mirrored_right_.create(size.height, w + pad, CV_8UC1);
-      cv::Mat roi_left = mirrored_left_.colRange(pad, pad + w);
-      cv::Mat roi_right = mirrored_right_.colRange(pad, pad + w);
-      cv::flip(*right_grey, roi_left, 1);
-      cv::flip(*left_grey, roi_right, 1);
-      replicateLeftColumns<std::uint8_t>(pad, &mirrored_left_);
-      replicateLeftColumns<std::uint8_t>(pad, &mirrored_right_);
-      right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
-      cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
-      convertMatcherOutput(raw_right_, &right_disparity_);
       DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
-      rm.ran = true;
-      rm.valid_before = 0;
-      rm.valid_after = cv::countNonZero(right_disparity_);
-      rm.ms = msSince(t);
+      if (parallel) {
+        task_.wait();
+        join.task = nullptr;
+        if (right_failed_) return fail(right_error_);
+        rm = task_stats_;
+      } else {
+        matchRightToLeft(*left_grey, *right_grey, &rm);
+      }
 
       if (!run_step(DisparityStep::kLeftRight, DisparityRemoval::kLeftRight, [&] {
             return filterLeftRightInconsistent(right_disparity_, config_.left_right, &disparity);

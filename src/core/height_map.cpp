@@ -70,22 +70,18 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
     std::int32_t* row_low = &w_low_[static_cast<std::size_t>(v - lo.v) * width_];
     float* row_z = &surface_z_[static_cast<std::size_t>(v - lo.v) * width_];
     for (int u = lo.u; u < lo.u + width_; ++u) {
-      // Scan down from the robot's top; the first occupied voxel is the column's height, the
-      // last one its lowest.
-      for (int w = w_hi; w >= w_lo; --w) {
-        if (grid.isOccupied(VoxelIndex{u, v, w})) {
-          if (row[u - lo.u] == kNoHeight) {
-            row[u - lo.u] = w;
-            const VoxelPointList pts = grid.points(VoxelIndex{u, v, w});
-            if (!pts.empty()) {
-              float sum = 0.0f;
-              for (const VoxelPoint& p : pts)
-                sum += p.position.z();
-              row_z[u - lo.u] = sum / static_cast<float>(pts.size);
-            }
-          }
-          row_low[u - lo.u] = w;
-        }
+      // Scanning down from the robot's top, the first occupied voxel is the column's height,
+      // the last one its lowest.
+      int top = 0, bottom = 0;
+      if (!grid.occupiedExtent(u, v, w_lo, w_hi, &top, &bottom)) continue;
+      row[u - lo.u] = top;
+      row_low[u - lo.u] = bottom;
+      const VoxelPointList pts = grid.points(VoxelIndex{u, v, top});
+      if (!pts.empty()) {
+        float sum = 0.0f;
+        for (const VoxelPoint& p : pts)
+          sum += p.position.z();
+        row_z[u - lo.u] = sum / static_cast<float>(pts.size);
       }
     }
   }

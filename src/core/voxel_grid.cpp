@@ -562,6 +562,29 @@ VoxelPointList VoxelGrid::points(const VoxelIndex& i) const {
   return list;
 }
 
+bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const {
+  const std::int64_t ru = std::int64_t{u} - min_.u;
+  const std::int64_t rv = std::int64_t{v} - min_.v;
+  if (ru < 0 || ru >= nu_ || rv < 0 || rv >= nv_) return false;
+  const std::int64_t lo = std::max<std::int64_t>(std::int64_t{w_lo} - min_.w, 0);
+  const std::int64_t hi = std::min<std::int64_t>(std::int64_t{w_hi} - min_.w, nw_ - 1);
+  if (lo > hi) return false;
+  // w is the innermost axis of the ring buffer: the column is contiguous, in ring order.
+  const std::int16_t* const column = lop_.data() + slot_u_[ru] + slot_v_[rv];
+  const std::uint32_t* const slot_w = slot_w_.data();
+  const int occ = config_.occ_threshold;
+  std::int64_t top = hi;
+  while (top >= lo && column[slot_w[top]] < occ)
+    --top;
+  if (top < lo) return false;
+  std::int64_t bottom = lo;
+  while (column[slot_w[bottom]] < occ)  // stops at top at the latest
+    ++bottom;
+  *w_top = static_cast<int>(top + min_.w);
+  *w_bottom = static_cast<int>(bottom + min_.w);
+  return true;
+}
+
 void VoxelGrid::setLogOdds(const VoxelIndex& i, int lop) {
   if (!contains(i)) return;
   lop_[linear(i)] =

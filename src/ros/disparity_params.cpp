@@ -218,6 +218,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* c)
   r.read("enable_left_right", &c->enable_left_right);
   r.read("left_right_max_difference", &c->left_right.max_difference);
   r.read("left_right_reject_if_right_invalid", &c->left_right.reject_if_right_invalid);
+  r.read("parallel_left_right", &c->parallel_left_right);
   r.read("enable_neighbour_consistency", &c->enable_neighbour_consistency);
   r.read("neighbour_window_radius", &c->neighbour_consistency.window_radius);
   r.read("neighbour_max_difference", &c->neighbour_consistency.max_difference);
@@ -254,7 +255,7 @@ std::vector<std::string> disparityParameterNames() {
           // post-filters
           "enable_uniqueness", "uniqueness_ratio", "enable_texture", "texture_log_sigma",
           "texture_window_size", "texture_min_energy", "enable_left_right",
-          "left_right_max_difference", "left_right_reject_if_right_invalid",
+          "left_right_max_difference", "left_right_reject_if_right_invalid", "parallel_left_right",
           "enable_neighbour_consistency", "neighbour_window_radius", "neighbour_max_difference",
           "neighbour_min_agreeing_fraction", "neighbour_remove_isolated", "enable_spike_removal",
           "spike_max_difference", "spike_min_region_size",

@@ -331,6 +331,65 @@ TEST(DisparityPipeline, OccludedRegionIsRemovedByLeftRightCheck) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// parallel_left_right runs the right-to-left matcher on a helper thread: the output, the
+// right-to-left disparities, the step counts and the debug reasons must be those of the
+// sequential pipeline, frame after frame (buffers reused), for BM and SGBM.
+TEST(DisparityPipeline, ParallelLeftRightGivesTheSequentialResultBitForBit) {
+  std::vector<Scene> scenes;
+  for (int i = 0; i < 4; ++i) {
+    const cv::Rect box(120 + 10 * i, 50 + 5 * i, 70 + 8 * i, 110);
+    scenes.push_back(
+        render({background(8 + i, 20 + i), Layer{box, 30 + 2 * i, randomDots(30 + i)}}));
+  }
+  for (const StereoMatcherType matcher :
+       {StereoMatcherType::kBlockMatching, StereoMatcherType::kSemiGlobal}) {
+    for (const bool debug : {false, true}) {
+      DisparityPipelineConfig config;
+      config.matcher = matcher;
+      config.debug = debug;
+      DisparityPipeline sequential(config);
+      config.parallel_left_right = true;
+      DisparityPipeline parallel(config);
+      for (int frame = 0; frame < 8; ++frame) {
+        const Scene& scene = scenes[frame % scenes.size()];
+        cv::Mat d_seq, d_par;
+        DisparityStats st_seq, st_par;
+        std::string error;
+        ASSERT_TRUE(sequential.compute(scene.left, scene.right, &d_seq, &st_seq, &error)) << error;
+        ASSERT_TRUE(parallel.compute(scene.left, scene.right, &d_par, &st_par, &error)) << error;
+        ASSERT_EQ(cv::checkRange(d_par), true);
+        EXPECT_EQ(cv::norm(d_seq, d_par, cv::NORM_INF), 0.0) << "frame " << frame;
+        EXPECT_EQ(cv::norm(sequential.rightDisparity(), parallel.rightDisparity(), cv::NORM_INF),
+                  0.0);
+        EXPECT_GT(st_par.valid, 0);
+        EXPECT_EQ(st_seq.valid, st_par.valid);
+        for (int k = 0; k < kNumDisparitySteps; ++k) {
+          EXPECT_EQ(st_seq.steps[k].ran, st_par.steps[k].ran) << k;
+          EXPECT_EQ(st_seq.steps[k].valid_before, st_par.steps[k].valid_before) << k;
+          EXPECT_EQ(st_seq.steps[k].valid_after, st_par.steps[k].valid_after) << k;
+        }
+        if (debug) {
+          EXPECT_EQ(cv::norm(sequential.removalReasons(), parallel.removalReasons(), cv::NORM_INF),
+                    0.0);
+        }
+      }
+      // Bad input while the option is on: refused with a message, the next frame is served.
+      cv::Mat d;
+      std::string error;
+      EXPECT_FALSE(parallel.compute(scenes[0].left, scenes[0].right.colRange(0, kCols - 8), &d,
+                                    nullptr, &error));
+      EXPECT_FALSE(error.empty());
+      ASSERT_TRUE(parallel.compute(scenes[1].left, scenes[1].right, &d, nullptr, &error)) << error;
+      // A copy gets a helper thread of its own and the same result.
+      DisparityPipeline copy = parallel;
+      cv::Mat d_copy;
+      ASSERT_TRUE(copy.compute(scenes[1].left, scenes[1].right, &d_copy, nullptr, &error));
+      EXPECT_EQ(cv::norm(d, d_copy, cv::NORM_INF), 0.0);
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
 TEST(DisparityPipeline, ColourInputGivesTheSameResultAsGrey) {
   const Scene scene = render({background(16, 8)});
   DisparityPipeline pipeline;

@@ -672,6 +672,54 @@ TEST(VoxelGridScroll, RandomScrollsAgreeWithAReferenceMap) {
   }
 }
 
+// occupiedExtent() reads a column in ring order: after scrolls the ring is rotated, so compare
+// it with isOccupied() on every voxel, for ranges inside, across and outside the window.
+TEST(VoxelGridScroll, OccupiedExtentAgreesWithIsOccupiedAfterScrolls) {
+  VoxelGridConfig c;
+  c.size_x = 1.2;
+  c.size_y = 0.8;
+  c.size_z = 1.0;
+  c.z_below_robot = 0.4;
+  VoxelGrid g(c);
+  std::mt19937 rng(7);
+  int columns_with_voxels = 0;
+  for (int iter = 0; iter < 40; ++iter) {
+    std::uniform_real_distribution<float> d(-0.7f, 0.7f);
+    g.recenter(Vec(d(rng), d(rng), d(rng)));
+    const VoxelIndex m = g.minIndex();
+    for (int j = 0; j < 60; ++j) {
+      const int u = m.u + static_cast<int>(rng() % g.sizeU());
+      const int v = m.v + static_cast<int>(rng() % g.sizeV());
+      const int w = m.w + static_cast<int>(rng() % g.sizeW());
+      g.setLogOdds(idx(u, v, w), static_cast<int>(rng() % 250) - 50);  // occ_t = 100
+    }
+    for (int u = m.u - 1; u <= m.u + g.sizeU(); ++u) {
+      for (int v = m.v - 1; v <= m.v + g.sizeV(); ++v) {
+        const int lo = m.w - 2 + static_cast<int>(rng() % (g.sizeW() + 2));
+        const int hi = lo + static_cast<int>(rng() % (g.sizeW() + 4)) - 1;
+        int top = -12345, bottom = -12345;
+        for (int w = hi; w >= lo; --w) {
+          if (!g.isOccupied(idx(u, v, w))) continue;
+          if (top == -12345) top = w;
+          bottom = w;
+        }
+        int got_top = -777, got_bottom = -777;
+        const bool found = g.occupiedExtent(u, v, lo, hi, &got_top, &got_bottom);
+        ASSERT_EQ(found, top != -12345) << "iter " << iter << " column " << u << "," << v;
+        if (found) {
+          ++columns_with_voxels;
+          EXPECT_EQ(got_top, top);
+          EXPECT_EQ(got_bottom, bottom);
+        } else {
+          EXPECT_EQ(got_top, -777);  // untouched
+          EXPECT_EQ(got_bottom, -777);
+        }
+      }
+    }
+  }
+  EXPECT_GT(columns_with_voxels, 100);  // the comparison saw occupied columns
+}
+
 TEST(VoxelGridScroll, IntegrationAfterScrollUsesGlobalIndices) {
   VoxelGrid g;
   g.recenter(Vec(3.37f, -2.21f, 0.4f));

@@ -22,8 +22,11 @@
 #include <opencv2/core.hpp>
 
 #include <array>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace stereo_safety_map {
 
@@ -62,6 +65,13 @@ struct DisparityPipelineConfig {
   /// Keep a per-pixel removal reason and a colour debug image (see DisparityPipeline). When the
   /// uniqueness test is on this runs one extra matcher pass without it, to attribute its pixels.
   bool debug = false;
+
+  /// Run the right-to-left matcher of the left-right check on a second thread (owned by the
+  /// pipeline, started at the first frame that needs it) while this one matches left-to-right
+  /// and runs the texture test. Same output bit for bit, same CPU time; the latency drops by up
+  /// to the right matcher's time (about 40 % of the stage at 640x480 BM) when a second core is
+  /// free. Ours, not in the papers.
+  bool parallel_left_right = false;
 
   std::string validate() const;
 };
@@ -110,6 +120,33 @@ enum class DisparityRemoval : std::uint8_t {
 /// BGR colour of a removal reason in the debug image (kValid: the colour of the nearest depth).
 cv::Vec3b disparityRemovalColour(DisparityRemoval reason);
 
+namespace detail {
+/// One persistent helper thread that runs one task at a time (DisparityPipelineConfig::
+/// parallel_left_right). Copies start without a thread of their own.
+class TaskThread {
+ public:
+  TaskThread() = default;
+  TaskThread(const TaskThread&) {}
+  TaskThread& operator=(const TaskThread&) { return *this; }
+  ~TaskThread();
+  /// Starts fn(arg) on the thread (created at the first call); the previous task must have been
+  /// waited for.
+  void start(void (*fn)(void*), void* arg);
+  /// Blocks until the task started last has returned; no-op when none is running.
+  void wait();
+
+ private:
+  void loop();
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  void (*fn_)(void*) = nullptr;
+  void* arg_ = nullptr;
+  bool busy_ = false;
+  bool stop_ = false;
+};
+}  // namespace detail
+
 /// Not thread-safe (matchers and buffers are members, reused every frame): one per thread.
 class DisparityPipeline {
  public:
@@ -157,6 +194,11 @@ class DisparityPipeline {
   bool toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat** grey, const char* which,
               std::string* error) const;
   void convertMatcherOutput(const cv::Mat& raw, cv::Mat* disparity) const;
+  // Right-to-left matching of the left-right check into right_disparity_ (and *stats); on an
+  // exception the message goes to right_error_. Runs on task_ with parallel_left_right.
+  void matchRightToLeft(const cv::Mat& left_grey, const cv::Mat& right_grey,
+                        DisparityStepStats* stats);
+  static void matchRightToLeftTask(void* self);
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
   void renderDebugImage(const cv::Mat& disparity);
 
@@ -176,6 +218,14 @@ class DisparityPipeline {
   cv::Mat plain_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
+
+  // parallel_left_right: the helper thread and the arguments of its task.
+  detail::TaskThread task_;
+  const cv::Mat* task_left_ = nullptr;
+  const cv::Mat* task_right_ = nullptr;
+  DisparityStepStats task_stats_;
+  bool right_failed_ = false;
+  std::string right_error_;
 };
 
 }  // namespace stereo_safety_map

@@ -143,6 +143,13 @@ class VoxelGrid {
   /// The voxel's point list (empty outside the window).
   VoxelPointList points(const VoxelIndex& i) const;
 
+  /// Highest and lowest occupied voxel (LOP >= occ_t) of the column (u, v) among the indexed
+  /// heights [w_lo, w_hi] (global indices, clipped to the window). Returns false and leaves the
+  /// outputs unchanged when there is none or the column is outside the window. The same answer
+  /// as isOccupied() on every voxel of the column, in one pass over the column's contiguous
+  /// storage: the height map's inner loop (000 Sec. V-A).
+  bool occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const;
+
   /// Sets a voxel's log-odds directly (clamped). For tests and for fusing external cues.
   void setLogOdds(const VoxelIndex& i, int lop);
 
