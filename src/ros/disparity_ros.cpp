@@ -68,6 +68,10 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
   pipeline_.setConfig(pipeline_config_);
+  StereoInputCheckConfig check;
+  check.min_contrast = ros_config_.min_image_contrast;
+  check.reject_frozen = ros_config_.reject_frozen_images;
+  input_check_.setConfig(check);  // validated above: does not throw
   matcher_in_use_ = matcherName(pipeline_config_.matcher);
 
   // Synchronize the inputs; the topics are subscribed on demand in connectCb().
@@ -334,6 +338,12 @@ void DisparityRos::processFrame(const Frame& frame) {
   if (!err.empty()) {
     const bool encoding = err.find("encoding") != std::string::npos;
     reject(encoding ? "unsupported encoding" : "bad image", "dropped a stereo frame: " + err);
+    return;
+  }
+  // A covered, black or frozen camera: matching would give confident-looking wrong disparities.
+  const StereoInputProblem problem = input_check_.check(left_grey, right_grey, &err);
+  if (problem != StereoInputProblem::kNone) {
+    reject(toString(problem), "dropped a stereo frame: " + err);
     return;
   }
 

@@ -21,6 +21,7 @@
 
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/stereo_input_check.h"
 #include "stereo_safety_map/ros/disparity_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -137,6 +138,7 @@ class DisparityRos {
 
   // Worker-only: the core and buffers reused from frame to frame.
   DisparityPipeline pipeline_;
+  StereoInputCheck input_check_;  ///< black / covered / frozen cameras
   StereoCameraModel camera_;
   cv::Mat left_buffer_, right_buffer_;
   cv::Mat disparity_;
