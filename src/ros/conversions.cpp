@@ -26,7 +26,8 @@ bool positiveFinite(double v) {
   return std::isfinite(v) && v > 0.0;
 }
 
-// Checks the fields image_geometry divides by, before it does (it does not check them).
+}  // namespace
+
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which) {
   const std::string name = std::string(which) + " CameraInfo";
   if (info.width == 0 || info.height == 0) return name + " has an empty image size";
@@ -39,8 +40,6 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* whi
   }
   return "";
 }
-
-}  // namespace
 
 std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
                        double max_slope_deg) {
@@ -131,9 +130,10 @@ std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity
   return "";
 }
 
-std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
-                                DisparityImageStats* stats) {
-  const sensor_msgs::Image& img = msg.image;
+namespace {
+
+// The structure of a DisparityImage's image: encoding, byte order, step, data size.
+std::string checkDisparityStructure(const sensor_msgs::Image& img) {
   if (img.encoding != sensor_msgs::image_encodings::TYPE_32FC1) {
     return "DisparityImage has unsupported encoding '" + img.encoding + "' (need 32FC1)";
   }
@@ -149,33 +149,69 @@ std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat*
     return "DisparityImage data has " + str(img.data.size()) + " bytes, " + str(needed) +
            " needed for " + str(img.width) + "x" + str(img.height) + " with step " + str(img.step);
   }
+  return "";
+}
+
+// Visits every pixel of a DisparityImage whose structure was checked: f(row, col, value) with
+// the value made invalid (0) when not finite or outside [min_disparity, max_disparity].
+template <typename F>
+DisparityImageStats scanDisparity(const stereo_msgs::DisparityImage& msg, F&& f) {
+  const sensor_msgs::Image& img = msg.image;
   const float lo = msg.min_disparity;
   const float hi = msg.max_disparity;
   const bool use_range = std::isfinite(lo) && std::isfinite(hi) && hi > lo;
-  out->create(static_cast<int>(img.height), static_cast<int>(img.width), CV_32FC1);
   DisparityImageStats s;
   s.pixels = static_cast<std::size_t>(img.width) * img.height;
-  for (int r = 0; r < out->rows; ++r) {
+  for (std::uint32_t r = 0; r < img.height; ++r) {
     const std::uint8_t* src = img.data.data() + static_cast<std::size_t>(r) * img.step;
-    float* dst = out->ptr<float>(r);
-    std::memcpy(dst, src, row_bytes);  // the data need not be aligned for float
-    for (int c = 0; c < out->cols; ++c) {
-      if (!std::isfinite(dst[c])) {
+    for (std::uint32_t c = 0; c < img.width; ++c) {
+      float d;
+      std::memcpy(&d, src + c * sizeof(float), sizeof(float));  // need not be aligned
+      if (!std::isfinite(d)) {
         ++s.non_finite;
-        dst[c] = 0.0f;
-      } else if (use_range && (dst[c] < lo || dst[c] > hi)) {
+        d = 0.0f;
+      } else if (use_range && (d < lo || d > hi)) {
         ++s.out_of_range;
-        dst[c] = 0.0f;
+        d = 0.0f;
       }
+      f(r, c, d);
     }
   }
+  return s;
+}
+
+}  // namespace
+
+std::string checkDisparityImage(const stereo_msgs::DisparityImage& msg,
+                                DisparityImageStats* stats) {
+  if (!positiveFinite(msg.f)) {
+    return "DisparityImage has zero or non-finite focal length f = " + str(msg.f);
+  }
+  if (!positiveFinite(msg.T)) {
+    return "DisparityImage has zero or non-finite baseline T = " + str(msg.T);
+  }
+  const std::string err = checkDisparityStructure(msg.image);
+  if (!err.empty()) return err;
+  const DisparityImageStats s = scanDisparity(msg, [](std::uint32_t, std::uint32_t, float) {});
   if (stats != nullptr) *stats = s;
   return "";
 }
 
-std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
-                                std::vector<Eigen::Vector3f>* points, CloudStats* stats) {
-  points->clear();
+std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
+                                DisparityImageStats* stats) {
+  const std::string err = checkDisparityStructure(msg.image);
+  if (!err.empty()) return err;
+  out->create(static_cast<int>(msg.image.height), static_cast<int>(msg.image.width), CV_32FC1);
+  const DisparityImageStats s = scanDisparity(
+      msg, [out](std::uint32_t r, std::uint32_t c, float d) { out->ptr<float>(r)[c] = d; });
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+namespace {
+
+// The structure of a PointCloud2: fields x, y, z, byte order, steps, data size.
+std::string checkCloudStructure(const sensor_msgs::PointCloud2& msg) {
   if (msg.is_bigendian) return "PointCloud2 is big-endian (unsupported)";
   const char* names[3] = {"x", "y", "z"};
   for (const char* name : names) {
@@ -202,46 +238,75 @@ std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
     return "PointCloud2 data has " + str(msg.data.size()) + " bytes, row_step x height = " +
            str(static_cast<std::size_t>(msg.row_step) * msg.height) + " needed";
   }
-  CloudStats s;
-  s.points = n;
-  points->reserve(n);
-  // The iterator walks point_step by point_step; rows with padding (row_step > width *
-  // point_step) are iterated row by row.
-  for (std::uint32_t r = 0; r < msg.height; ++r) {
-    const std::uint8_t* row = msg.data.data() + static_cast<std::size_t>(r) * msg.row_step;
-    if (msg.row_step == msg.width * msg.point_step) {
-      if (r > 0) break;  // dense: the iterator below covers every row at once
-      sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-      for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z) {
-        const Eigen::Vector3f p(*x, *y, *z);
-        if (p.allFinite()) {
-          points->push_back(p);
-        } else {
-          ++s.non_finite;
-        }
-      }
-      break;
-    }
-    int ox = 0, oy = 0, oz = 0;
+  return "";
+}
+
+}  // namespace
+
+namespace {
+
+// Byte offsets of x, y, z: the first field of each name, the one checkCloudStructure() checked.
+void xyzOffsets(const sensor_msgs::PointCloud2& msg, std::uint32_t off[3]) {
+  const char* names[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) {
+    off[a] = 0;
     for (const auto& f : msg.fields) {
-      if (f.name == "x") ox = static_cast<int>(f.offset);
-      if (f.name == "y") oy = static_cast<int>(f.offset);
-      if (f.name == "z") oz = static_cast<int>(f.offset);
-    }
-    for (std::uint32_t c = 0; c < msg.width; ++c) {
-      const std::uint8_t* pt = row + static_cast<std::size_t>(c) * msg.point_step;
-      float xyz[3];
-      std::memcpy(&xyz[0], pt + ox, sizeof(float));
-      std::memcpy(&xyz[1], pt + oy, sizeof(float));
-      std::memcpy(&xyz[2], pt + oz, sizeof(float));
-      const Eigen::Vector3f p(xyz[0], xyz[1], xyz[2]);
-      if (p.allFinite()) {
-        points->push_back(p);
-      } else {
-        ++s.non_finite;
+      if (f.name == names[a]) {
+        off[a] = f.offset;
+        break;
       }
     }
   }
+}
+
+// Visits every point of a cloud whose structure was checked: f(x, y, z), row by row (rows may
+// be padded: row_step >= width x point_step).
+template <typename F>
+void forEachPoint(const sensor_msgs::PointCloud2& msg, F&& f) {
+  std::uint32_t off[3];
+  xyzOffsets(msg, off);
+  for (std::uint32_t r = 0; r < msg.height; ++r) {
+    const std::uint8_t* row = msg.data.data() + static_cast<std::size_t>(r) * msg.row_step;
+    for (std::uint32_t c = 0; c < msg.width; ++c) {
+      const std::uint8_t* pt = row + static_cast<std::size_t>(c) * msg.point_step;
+      float xyz[3];
+      for (int a = 0; a < 3; ++a)
+        std::memcpy(&xyz[a], pt + off[a], sizeof(float));  // need not be aligned
+      f(xyz[0], xyz[1], xyz[2]);
+    }
+  }
+}
+
+}  // namespace
+
+std::string checkPointCloud2(const sensor_msgs::PointCloud2& msg, CloudStats* stats) {
+  const std::string err = checkCloudStructure(msg);
+  if (!err.empty()) return err;
+  CloudStats s;
+  s.points = static_cast<std::size_t>(msg.width) * msg.height;
+  forEachPoint(msg, [&s](float x, float y, float z) {
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) ++s.non_finite;
+  });
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
+                                std::vector<Eigen::Vector3f>* points, CloudStats* stats) {
+  points->clear();
+  const std::string err = checkCloudStructure(msg);
+  if (!err.empty()) return err;
+  CloudStats s;
+  s.points = static_cast<std::size_t>(msg.width) * msg.height;
+  points->reserve(s.points);
+  forEachPoint(msg, [&s, points](float x, float y, float z) {
+    const Eigen::Vector3f p(x, y, z);
+    if (p.allFinite()) {
+      points->push_back(p);
+    } else {
+      ++s.non_finite;
+    }
+  });
   if (stats != nullptr) *stats = s;
   return "";
 }

@@ -66,6 +66,14 @@ std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, doubl
 
 // ---------------------------------------------------------------------------------------------
 // Inputs
+//
+// The check*() functions read a message without converting it (no allocation): cheap enough for
+// a subscriber callback, so that a malformed message is refused before it reaches a tf filter, a
+// sync or a queue, where it could push a valid message out.
+
+/// One CameraInfo on its own: non-empty size, finite P, positive focal length. `which` names it
+/// in the message ("left", "right").
+std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which);
 
 /// Rectified stereo geometry from the left / right CameraInfo pair through
 /// image_geometry::StereoCameraModel (binning and ROI applied: the model describes the images as
@@ -88,6 +96,11 @@ struct DisparityImageStats {
   std::size_t out_of_range = 0;  ///< outside [min_disparity, max_disparity] (invalid marker)
 };
 
+/// Everything disparityImageToMat() checks, plus positive finite f and T, without the copy;
+/// `stats` counts the pixels that would be invalid.
+std::string checkDisparityImage(const stereo_msgs::DisparityImage& msg,
+                                DisparityImageStats* stats = nullptr);
+
 /// Copies the disparity image into `out` (CV_32FC1, reused), checking encoding (32FC1), byte
 /// order, step and data size. Pixels that are not finite or lie outside the message's
 /// [min_disparity, max_disparity] (when max > min; stereo_image_proc marks invalid pixels with
@@ -100,9 +113,12 @@ struct CloudStats {
   std::size_t non_finite = 0;  ///< NaN / inf points, dropped
 };
 
-/// x, y, z of every finite point (sensor frame), through sensor_msgs::PointCloud2ConstIterator,
-/// after checking the fields (x, y, z present, FLOAT32, count 1, inside point_step), byte order,
-/// point_step / row_step and data size. `points` is reused (cleared, not shrunk).
+/// Everything pointCloud2ToPoints() checks, without the copy; `stats` counts the points.
+std::string checkPointCloud2(const sensor_msgs::PointCloud2& msg, CloudStats* stats = nullptr);
+
+/// x, y, z of every finite point (sensor frame), after checking the fields (x, y, z present,
+/// FLOAT32, count 1, inside point_step; the first field of each name is the one used), byte
+/// order, point_step / row_step and data size. `points` is reused (cleared, not shrunk).
 std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
                                 std::vector<Eigen::Vector3f>* points, CloudStats* stats = nullptr);
 
