@@ -105,8 +105,8 @@ StereoInputProblem StereoInputCheck::check(const cv::Mat& left, const cv::Mat& r
   if (config_.reject_frozen && (left_same || right_same)) {
     if (left_same && right_same) {
       return say(StereoInputProblem::kBothFrozen,
-                 "left and right images repeat the previous pair byte for byte: camera or driver "
-                 "frozen? (a noiseless simulator: set reject_frozen_images false)");
+                 "both cameras frozen? The left and right images repeat the previous pair byte "
+                 "for byte (a noiseless simulator: set reject_frozen_images false)");
     }
     return say(left_same ? StereoInputProblem::kLeftFrozen : StereoInputProblem::kRightFrozen,
                std::string(left_same ? "left" : "right") +

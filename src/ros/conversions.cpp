@@ -219,6 +219,13 @@ std::string checkCloudStructure(const sensor_msgs::PointCloud2& msg) {
         std::find_if(msg.fields.begin(), msg.fields.end(),
                      [name](const sensor_msgs::PointField& f) { return f.name == name; });
     if (it == msg.fields.end()) return std::string("PointCloud2 has no field '") + name + "'";
+    const auto same_name =
+        std::count_if(msg.fields.begin(), msg.fields.end(),
+                      [name](const sensor_msgs::PointField& f) { return f.name == name; });
+    if (same_name > 1) {
+      return std::string("PointCloud2 has ") + str(same_name) + " fields named '" + name +
+             "' (ambiguous)";
+    }
     if (it->datatype != sensor_msgs::PointField::FLOAT32 || it->count != 1) {
       return std::string("PointCloud2 field '") + name + "' is not a single FLOAT32 (datatype " +
              str(static_cast<int>(it->datatype)) + ", count " + str(it->count) + ")";
@@ -245,7 +252,7 @@ std::string checkCloudStructure(const sensor_msgs::PointCloud2& msg) {
 
 namespace {
 
-// Byte offsets of x, y, z: the first field of each name, the one checkCloudStructure() checked.
+// Byte offsets of x, y, z (checkCloudStructure() made sure there is one field of each name).
 void xyzOffsets(const sensor_msgs::PointCloud2& msg, std::uint32_t off[3]) {
   const char* names[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {

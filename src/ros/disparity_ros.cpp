@@ -51,8 +51,19 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("disparity", this, &DisparityRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
+  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
+  // in the future and publish nothing: force it.
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
+        const ros::Time now = ros::Time::now();
+        if (now < last_diagnostics_time_) {
+          diagnostics_->force_update();
+        } else {
+          diagnostics_->update();
+        }
+        last_diagnostics_time_ = now;
+      });
   window_start_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);

@@ -171,6 +171,8 @@ std::string SafetyMapRosConfig::validate() const {
     os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
   } else if (save_prefix.empty()) {
     os << "save_prefix is empty, must be a path prefix such as /tmp/safety_map";
+  } else if (!std::isfinite(max_tf_wait) || max_tf_wait <= 0.0 || max_tf_wait > 3600.0) {
+    os << "max_tf_wait = " << max_tf_wait << ", must be in (0, 3600] s";
   } else if (!std::isfinite(stale_input_timeout) || stale_input_timeout <= 0.0 ||
              stale_input_timeout > 3600.0) {
     os << "stale_input_timeout = " << stale_input_timeout << ", must be in (0, 3600] s";
@@ -192,6 +194,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* c) {
   r.read("save_prefix", &c->save_prefix);
   r.read("reject_frozen_input", &c->reject_frozen_input);
   r.read("stale_input_timeout", &c->stale_input_timeout);
+  r.read("max_tf_wait", &c->max_tf_wait);
   return r.result(c->validate());
 }
 
@@ -215,7 +218,7 @@ std::vector<std::string> safetyMapParameterNames() {
       // SafetyMapRosConfig
       "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
       "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix", "reject_frozen_input",
-      "stale_input_timeout",
+      "stale_input_timeout", "max_tf_wait",
       // diagnostic_updater's own
       "diagnostic_period"};
 }

@@ -85,8 +85,19 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
+  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
+  // in the future and publish nothing: force it.
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
+        const ros::Time now = ros::Time::now();
+        if (now < last_diagnostics_time_) {
+          diagnostics_->force_update();
+        } else {
+          diagnostics_->update();
+        }
+        last_diagnostics_time_ = now;
+      });
   window_start_ = started_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -442,6 +453,17 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   } else if (!last_stamp_.isZero() && stamp <= last_stamp_) {
     reject("out of order", "dropped a frame out of order: stamp " + std::to_string(stamp.toSec()) +
                                " is not newer than the last frame's");
+    return;
+  }
+
+  // A transform that came long after its frame: tf stalled, and the pose of a frame in the gap
+  // would be interpolated between samples seconds apart, not measured.
+  if (frame.tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
+    std::ostringstream os;
+    os << "dropped a frame at t = " << stamp << ": its transform came " << frame.tf_wait_ms / 1000.0
+       << " s after it (more than max_tf_wait = " << ros_config_.max_tf_wait
+       << " s): tf stalled, the pose would be interpolated across the gap";
+    reject("stale tf", os.str());
     return;
   }
 

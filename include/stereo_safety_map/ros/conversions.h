@@ -116,9 +116,9 @@ struct CloudStats {
 /// Everything pointCloud2ToPoints() checks, without the copy; `stats` counts the points.
 std::string checkPointCloud2(const sensor_msgs::PointCloud2& msg, CloudStats* stats = nullptr);
 
-/// x, y, z of every finite point (sensor frame), after checking the fields (x, y, z present,
-/// FLOAT32, count 1, inside point_step; the first field of each name is the one used), byte
-/// order, point_step / row_step and data size. `points` is reused (cleared, not shrunk).
+/// x, y, z of every finite point (sensor frame), after checking the fields (x, y, z present
+/// once each, FLOAT32, count 1, inside point_step), byte order, point_step / row_step and data
+/// size. `points` is reused (cleared, not shrunk).
 std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
                                 std::vector<Eigen::Vector3f>* points, CloudStats* stats = nullptr);
 

@@ -121,7 +121,8 @@ class DisparityRos {
   ros::Publisher cloud_pub_;
   image_transport::Publisher debug_pub_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;
+  ros::Time last_diagnostics_time_;           ///< timer callback only
   boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
 

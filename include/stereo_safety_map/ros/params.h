@@ -46,6 +46,9 @@ struct SafetyMapRosConfig {
   /// Drop a frame whose data are byte for byte the previous frame's (a frozen camera or driver
   /// re-sending its last buffer); off for noiseless simulators that repeat frames.
   bool reject_frozen_input = true;
+  /// A frame whose transform arrived more than this after the frame [s] is dropped: its pose
+  /// would be interpolated across a gap in tf (odometry stalled), not measured.
+  double max_tf_wait = 1.0;
   /// Diagnostics WARN when no input arrived, or none was used, for this long [s].
   double stale_input_timeout = 2.0;
 

@@ -174,7 +174,8 @@ class SafetyMapRos {
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;
+  ros::Time last_diagnostics_time_;  ///< timer callback only
   ros::WallTimer age_timer_;
   boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
