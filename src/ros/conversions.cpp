@@ -1,9 +1,10 @@
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <image_geometry/pinhole_camera_model.h>
-#include <image_geometry/stereo_camera_model.h>
 #include <sensor_msgs/image_encodings.h>
+
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -33,6 +34,10 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* whi
   if (info.width == 0 || info.height == 0) return name + " has an empty image size";
   for (double p : info.P) {
     if (!std::isfinite(p)) return name + " has a non-finite value in P";
+  }
+  if (info.P[11] != 0.0) {
+    // image_geometry asserts it (P(2, 3) == 0) in places: an assertion aborts the process.
+    return name + " has P[11] = " + str(info.P[11]) + ", must be 0 for a rectified camera";
   }
   if (!positiveFinite(info.P[0]) || !positiveFinite(info.P[5])) {
     return name + " has zero focal length (P[0] = " + str(info.P[0]) +
@@ -70,20 +75,36 @@ std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
     return "left and right CameraInfo sizes differ (" + str(left.width) + "x" + str(left.height) +
            " vs " + str(right.width) + "x" + str(right.height) + ")";
   }
-  image_geometry::StereoCameraModel stereo;
+  // Each camera through image_geometry::PinholeCameraModel (binning and ROI applied), the pair
+  // checked here: image_geometry::StereoCameraModel::fromCameraInfo() asserts that fx, fy, cy and
+  // the frame ids agree, and an assertion aborts the whole nodelet manager (fuzzing found it).
+  // image_geometry throws from more than fromCameraInfo() (reducedResolution() of an ROI to
+  // rectify with an unknown distortion model: fuzzing found it); everything it computes is read
+  // inside the try.
+  image_geometry::PinholeCameraModel lm, rm;
+  cv::Size size;
   try {
-    stereo.fromCameraInfo(left, right);
+    lm.fromCameraInfo(left);
+    rm.fromCameraInfo(right);
+    size = lm.reducedResolution();
   } catch (const std::exception& e) {
     return std::string("image_geometry refused the CameraInfo pair: ") + e.what();
   }
-  const cv::Size size = stereo.left().reducedResolution();
+  auto differ = [](double a, double b) {
+    return std::abs(a - b) > 1e-6 * std::max(1.0, std::abs(a));
+  };
+  if (differ(lm.fx(), rm.fx()) || differ(lm.fy(), rm.fy()) || differ(lm.cy(), rm.cy())) {
+    return "left and right CameraInfo are not a rectified pair: fx " + str(lm.fx()) + " / " +
+           str(rm.fx()) + ", fy " + str(lm.fy()) + " / " + str(rm.fy()) + ", cy " + str(lm.cy()) +
+           " / " + str(rm.cy()) + " must agree";
+  }
   StereoCameraModel m;
-  m.fx = stereo.left().fx();
-  m.fy = stereo.left().fy();
-  m.cx = stereo.left().cx();
-  m.cy = stereo.left().cy();
-  m.cx_right = stereo.right().cx();
-  m.baseline = stereo.baseline();
+  m.fx = lm.fx();
+  m.fy = lm.fy();
+  m.cx = lm.cx();
+  m.cy = lm.cy();
+  m.cx_right = rm.cx();
+  m.baseline = -rm.Tx() / rm.fx();  // as image_geometry::StereoCameraModel::baseline()
   m.width = size.width;
   m.height = size.height;
   err = m.validate();
@@ -104,12 +125,13 @@ std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity
   std::string err = checkCameraInfo(left_info, "left");
   if (!err.empty()) return err;
   image_geometry::PinholeCameraModel left;
+  cv::Size size;
   try {
     left.fromCameraInfo(left_info);
+    size = left.reducedResolution();  // throws too (see cameraModelFromCameraInfo)
   } catch (const std::exception& e) {
     return std::string("image_geometry refused the left CameraInfo: ") + e.what();
   }
-  const cv::Size size = left.reducedResolution();
   if (static_cast<int>(disparity.image.width) != size.width ||
       static_cast<int>(disparity.image.height) != size.height) {
     return "DisparityImage size " + str(disparity.image.width) + "x" + str(disparity.image.height) +
@@ -315,6 +337,53 @@ std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
     }
   });
   if (stats != nullptr) *stats = s;
+  return "";
+}
+
+std::string rectifiedImageToGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                                 cv::Mat* grey) {
+  namespace enc = sensor_msgs::image_encodings;
+  int channels = 0;
+  int code = -1;
+  if (msg.encoding == enc::MONO8 || msg.encoding == enc::TYPE_8UC1) {
+    channels = 1;
+  } else if (msg.encoding == enc::BGR8) {
+    channels = 3;
+    code = cv::COLOR_BGR2GRAY;
+  } else if (msg.encoding == enc::RGB8) {
+    channels = 3;
+    code = cv::COLOR_RGB2GRAY;
+  } else if (msg.encoding == enc::BGRA8) {
+    channels = 4;
+    code = cv::COLOR_BGRA2GRAY;
+  } else if (msg.encoding == enc::RGBA8) {
+    channels = 4;
+    code = cv::COLOR_RGBA2GRAY;
+  } else {
+    return std::string(which) + " image has unsupported encoding '" + msg.encoding +
+           "' (need an 8-bit rectified image: mono8, bgr8, rgb8, bgra8 or rgba8)";
+  }
+  if (msg.width == 0 || msg.height == 0) return std::string(which) + " image is empty";
+  const std::size_t row_bytes = static_cast<std::size_t>(msg.width) * channels;
+  if (msg.step < row_bytes) {
+    return std::string(which) + " image step " + std::to_string(msg.step) +
+           " is smaller than width x channels = " + std::to_string(row_bytes);
+  }
+  const std::size_t needed = static_cast<std::size_t>(msg.step) * (msg.height - 1) + row_bytes;
+  if (msg.data.size() < needed) {
+    return std::string(which) + " image data has " + std::to_string(msg.data.size()) + " bytes, " +
+           std::to_string(needed) + " needed for " + str(msg.width) + "x" + str(msg.height) + " " +
+           msg.encoding + " with step " + std::to_string(msg.step);
+  }
+  // A view onto the message (read only: the pipeline does not write its inputs).
+  const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), CV_8UC(channels),
+                     const_cast<std::uint8_t*>(msg.data.data()), msg.step);
+  if (channels == 1) {
+    *grey = view;
+  } else {
+    cv::cvtColor(view, *buffer, code);
+    *grey = *buffer;
+  }
   return "";
 }
 

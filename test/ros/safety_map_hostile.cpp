@@ -311,6 +311,24 @@ class HostileTest : public ::testing::Test {
       D.push_back(triple(tiny, good_l, r));
     }
     {
+      // cy differs: image_geometry's StereoCameraModel asserts on it, which aborted the manager.
+      auto r = good_r;
+      r.P[6] += 5.0;
+      r.K[5] += 5.0;
+      D.push_back(triple(good_d, good_l, r));
+    }
+    {
+      // An ROI to rectify with an unknown distortion model: image_geometry throws from
+      // reducedResolution(), in the sync callback.
+      auto l = good_l, r = good_r;
+      l.distortion_model = r.distortion_model = "no_such_model";
+      l.roi.x_offset = r.roi.x_offset = 10;
+      l.roi.width = r.roi.width = 100;
+      l.roi.height = r.roi.height = 100;
+      l.roi.do_rectify = r.roi.do_rectify = true;
+      D.push_back(triple(good_d, l, r));
+    }
+    {
       auto d = tiny;  // an empty frame id: the tf filter refuses it at once
       d.header.frame_id = d.image.header.frame_id = "";
       D.push_back(alone(d));

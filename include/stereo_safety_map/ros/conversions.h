@@ -13,6 +13,7 @@
 
 #include <nav_msgs/OccupancyGrid.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
 #include <stereo_msgs/DisparityImage.h>
@@ -75,9 +76,18 @@ std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, doubl
 /// in the message ("left", "right").
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which);
 
-/// Rectified stereo geometry from the left / right CameraInfo pair through
-/// image_geometry::StereoCameraModel (binning and ROI applied: the model describes the images as
-/// published). Refuses zero or non-finite focal length, zero baseline, empty images.
+/// A grey view of a rectified 8-bit image (mono8 / 8UC1: onto the message's data, no copy; bgr8,
+/// rgb8, bgra8, rgba8: converted into `buffer`), after checking encoding, size, step and data
+/// size. `which` ("left", "right") names the image in the message. The view is valid while the
+/// message (or `buffer`) lives.
+std::string rectifiedImageToGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                                 cv::Mat* grey);
+
+/// Rectified stereo geometry from the left / right CameraInfo pair through two
+/// image_geometry::PinholeCameraModel (binning and ROI applied: the model describes the images as
+/// published; baseline as image_geometry::StereoCameraModel computes it). Refuses zero or
+/// non-finite focal length, zero baseline, empty images, sizes that differ, and a pair whose fx,
+/// fy or cy differ (image_geometry::StereoCameraModel would assert, aborting the process).
 std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                       const sensor_msgs::CameraInfo& right,
                                       StereoCameraModel* model);

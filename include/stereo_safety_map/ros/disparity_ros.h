@@ -86,9 +86,6 @@ class DisparityRos {
                const sensor_msgs::CameraInfoConstPtr& right_info);
   void workerLoop();
   void processFrame(const Frame& frame);
-  /// Grey view (or converted copy in `buffer`) of a rectified image; "" or why it is refused.
-  std::string toGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
-                     cv::Mat* grey) const;
   void publishDisparity(const std_msgs::Header& header);
   void publishCloud(const std_msgs::Header& header);
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
