@@ -598,36 +598,36 @@ void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header
   sensor_msgs::PointCloud2Modifier modifier(*out);
   modifier.setPointCloud2FieldsByString(1, "xyz");
   const VoxelIndex gmin = grid.minIndex();
-  std::size_t count = 0;
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass == 1) modifier.resize(count);
-    sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
+  auto for_each_occupied = [&grid, &gmin](const auto& f) {
     for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
       for (int v = gmin.v; v < gmin.v + grid.sizeV(); ++v) {
         for (int u = gmin.u; u < gmin.u + grid.sizeU(); ++u) {
           const VoxelIndex i{u, v, w};
-          if (!grid.isOccupied(i)) continue;
-          const VoxelPointList list = grid.points(i);
-          if (pass == 0) {
-            count += list.size;
-            continue;
-          }
-          for (const VoxelPoint& p : list) {
-            *x = p.position.x();
-            *y = p.position.y();
-            *z = p.position.z();
-            ++x;
-            ++y;
-            ++z;
-          }
+          if (grid.isOccupied(i)) f(grid.points(i));
         }
       }
     }
-  }
+  };
+  std::size_t count = 0;
+  for_each_occupied([&count](const VoxelPointList& list) { count += list.size; });
+  modifier.resize(count);
   out->height = 1;
   out->width = static_cast<std::uint32_t>(count);
   out->row_step = out->width * out->point_step;
   out->is_dense = true;
+  // An iterator over an empty cloud reads data.front() of an empty vector (UBSan found it).
+  if (count == 0) return;
+  sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
+  for_each_occupied([&x, &y, &z](const VoxelPointList& list) {
+    for (const VoxelPoint& p : list) {
+      *x = p.position.x();
+      *y = p.position.y();
+      *z = p.position.z();
+      ++x;
+      ++y;
+      ++z;
+    }
+  });
 }
 
 void toStageTimingsMsg(const StageTimings& timings, const std_msgs::Header& header,
