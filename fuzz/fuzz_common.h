@@ -19,12 +19,12 @@
 namespace ssm_fuzz {
 
 /// Aborts with a message when a documented contract does not hold.
-#define FUZZ_CHECK(cond)                                                              \
-  do {                                                                                \
-    if (!(cond)) {                                                                    \
+#define FUZZ_CHECK(cond)                                                                  \
+  do {                                                                                    \
+    if (!(cond)) {                                                                        \
       std::fprintf(stderr, "FUZZ_CHECK failed: %s (%s:%d)\n", #cond, __FILE__, __LINE__); \
-      std::abort();                                                                   \
-    }                                                                                 \
+      std::abort();                                                                       \
+    }                                                                                     \
   } while (0)
 
 /// A double that is often special: NaN, +-inf, +-0, huge, tiny, denormal, or any bit pattern;
@@ -156,8 +156,9 @@ inline cv::Mat makeStridedMat(FuzzedDataProvider& fdp, int rows, int cols, int t
       // External buffer with a step padded by a multiple of the element size (OpenCV requires
       // it for multi-channel types).
       const std::size_t elem = CV_ELEM_SIZE(type);
-      const std::size_t step = elem * (static_cast<std::size_t>(cols) +
-                                       static_cast<std::size_t>(fdp.ConsumeIntegralInRange<int>(0, 5)));
+      const std::size_t step =
+          elem * (static_cast<std::size_t>(cols) +
+                  static_cast<std::size_t>(fdp.ConsumeIntegralInRange<int>(0, 5)));
       storage->create(1, static_cast<int>(step * static_cast<std::size_t>(rows)), CV_8UC1);
       storage->setTo(cv::Scalar::all(0));
       return cv::Mat(rows, cols, type, storage->data, step);

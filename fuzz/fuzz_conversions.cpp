@@ -7,14 +7,19 @@
 // (missing, duplicated, mistyped fields, offsets outside the point, wrong point_step / row_step,
 // absurd sizes, short data, NaN / inf points).
 //
+// Also rectified 8-bit images (rectifiedImageToGrey: encodings, steps, sizes, short data).
+//
 // Contracts checked (conversions.h): nothing throws; on success the outputs are consistent
 // (image size and type, only finite valid pixels, one finite point per finite input point, a
-// camera model that validates); on failure the reason is not empty.
+// camera model that validates, a grey image of the message's size); on failure the reason is
+// not empty; the callback checks (checkDisparityImage, checkPointCloud2) accept exactly what the
+// conversions accept and count the same invalid values.
 #include "fuzz_common.h"
 
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/PointField.h>
 #include <stereo_msgs/DisparityImage.h>
@@ -80,9 +85,10 @@ sensor_msgs::CameraInfo randomCameraInfo(FuzzedDataProvider& fdp, bool right, do
   info.height = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? randomDimension(fdp, 48) : height;
   info.distortion_model =
       randomString(fdp, {"plumb_bob", "plumb_bob", "rational_polynomial", "equidistant", ""});
-  const int nd = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegralInRange<int>(0, 14)
-                                                             : 5;
-  for (int i = 0; i < nd; ++i) info.D.push_back(mostlyInRange(fdp, -0.1, 0.1));
+  const int nd =
+      fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegralInRange<int>(0, 14) : 5;
+  for (int i = 0; i < nd; ++i)
+    info.D.push_back(mostlyInRange(fdp, -0.1, 0.1));
   const double cx = mostlyInRange(fdp, 0.0, width, 16);
   const double cy = mostlyInRange(fdp, 0.0, height, 16);
   const double fy = fdp.ConsumeBool() ? fx : mostlyInRange(fdp, 10.0, 600.0, 16);
@@ -99,10 +105,12 @@ sensor_msgs::CameraInfo randomCameraInfo(FuzzedDataProvider& fdp, bool right, do
     if (which == 2) info.P[fdp.ConsumeIntegralInRange<int>(0, 11)] = v;
   }
   if (fdp.ConsumeIntegralInRange<int>(0, 3) == 0) {
-    info.binning_x = fdp.ConsumeIntegralInRange<int>(0, 3) == 0 ? fdp.ConsumeIntegral<std::uint32_t>()
-                                                                : fdp.ConsumeIntegralInRange<std::uint32_t>(0, 4);
-    info.binning_y = fdp.ConsumeIntegralInRange<int>(0, 3) == 0 ? fdp.ConsumeIntegral<std::uint32_t>()
-                                                                : fdp.ConsumeIntegralInRange<std::uint32_t>(0, 4);
+    info.binning_x = fdp.ConsumeIntegralInRange<int>(0, 3) == 0
+                         ? fdp.ConsumeIntegral<std::uint32_t>()
+                         : fdp.ConsumeIntegralInRange<std::uint32_t>(0, 4);
+    info.binning_y = fdp.ConsumeIntegralInRange<int>(0, 3) == 0
+                         ? fdp.ConsumeIntegral<std::uint32_t>()
+                         : fdp.ConsumeIntegralInRange<std::uint32_t>(0, 4);
   }
   if (fdp.ConsumeIntegralInRange<int>(0, 3) == 0) {
     info.roi.x_offset = randomDimension(fdp, 32);
@@ -141,8 +149,8 @@ void fuzzDisparityImage(FuzzedDataProvider& fdp) {
   stereo_msgs::DisparityImage msg;
   sensor_msgs::Image& img = msg.image;
   img.encoding = randomString(fdp, {"32FC1", "32FC1", "32FC1", "mono8", "16UC1", "32FC2", ""});
-  img.is_bigendian = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegral<std::uint8_t>()
-                                                                 : 0;
+  img.is_bigendian =
+      fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegral<std::uint8_t>() : 0;
   img.width = randomDimension(fdp, 48);
   img.height = randomDimension(fdp, 32);
   // Step: exact, padded, short, not a multiple of 4, or anything.
@@ -168,7 +176,9 @@ void fuzzDisparityImage(FuzzedDataProvider& fdp) {
   std::size_t needed = static_cast<std::size_t>(img.step) * img.height;
   switch (fdp.ConsumeIntegralInRange<int>(0, 7)) {
     case 0:
-      needed = needed > 0 ? needed - fdp.ConsumeIntegralInRange<std::size_t>(1, std::min<std::size_t>(needed, 8)) : 0;
+      needed = needed > 0 ? needed - fdp.ConsumeIntegralInRange<std::size_t>(
+                                         1, std::min<std::size_t>(needed, 8))
+                          : 0;
       break;
     case 1:
       needed += fdp.ConsumeIntegralInRange<std::size_t>(1, 16);
@@ -183,17 +193,32 @@ void fuzzDisparityImage(FuzzedDataProvider& fdp) {
   msg.min_disparity = fdp.ConsumeBool() ? 0.0f : specialFloat(fdp, -2.0f, 10.0f);
   msg.max_disparity = fdp.ConsumeBool() ? 64.0f : specialFloat(fdp, -2.0f, 100.0f);
 
+  msg.f = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? specialFloat(fdp, 0.0f, 600.0f) : 250.0f;
+  msg.T = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? specialFloat(fdp, 0.0f, 0.5f) : 0.12f;
+
   cv::Mat out;
   if (fdp.ConsumeBool()) out.create(3, 5, CV_8UC3);  // a reused buffer of another kind
   DisparityImageStats stats;
-  const std::string err = disparityImageToMat(msg, &out, fdp.ConsumeBool() ? &stats : nullptr);
+  const bool want_stats = fdp.ConsumeBool();
+  const std::string err = disparityImageToMat(msg, &out, want_stats ? &stats : nullptr);
+  // The callback's check: the same verdict (f and T checked on top), the same counts.
+  DisparityImageStats check_stats;
+  const std::string check_err = checkDisparityImage(msg, &check_stats);
+  const bool f_t_ok = std::isfinite(msg.f) && msg.f > 0.0f && std::isfinite(msg.T) && msg.T > 0.0f;
+  FUZZ_CHECK(check_err.empty() == (err.empty() && f_t_ok));
+  if (check_err.empty() && want_stats) {
+    FUZZ_CHECK(check_stats.pixels == stats.pixels);
+    FUZZ_CHECK(check_stats.non_finite == stats.non_finite);
+    FUZZ_CHECK(check_stats.out_of_range == stats.out_of_range);
+  }
   if (!err.empty()) return;
   FUZZ_CHECK(out.type() == CV_32FC1);
   FUZZ_CHECK(static_cast<std::uint32_t>(out.cols) == img.width &&
              static_cast<std::uint32_t>(out.rows) == img.height);
   FUZZ_CHECK(stats.non_finite + stats.out_of_range <= stats.pixels);
   for (int r = 0; r < out.rows; ++r) {
-    for (int c = 0; c < out.cols; ++c) FUZZ_CHECK(std::isfinite(out.at<float>(r, c)));
+    for (int c = 0; c < out.cols; ++c)
+      FUZZ_CHECK(std::isfinite(out.at<float>(r, c)));
   }
 }
 
@@ -203,8 +228,8 @@ void fuzzPointCloud(FuzzedDataProvider& fdp) {
   msg.is_dense = fdp.ConsumeBool();
   // Fields: usually x, y, z as FLOAT32 at 0, 4, 8 (+ rgb at 16), with mistakes mixed in.
   const char* names[] = {"x", "y", "z", "rgb", "intensity", "X", ""};
-  const int num_fields = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegralInRange<int>(0, 6)
-                                                                     : 3;
+  const int num_fields =
+      fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegralInRange<int>(0, 6) : 3;
   for (int i = 0; i < num_fields; ++i) {
     sensor_msgs::PointField f;
     f.name = (num_fields == 3 && fdp.ConsumeIntegralInRange<int>(0, 15) != 0)
@@ -214,7 +239,8 @@ void fuzzPointCloud(FuzzedDataProvider& fdp) {
                                                            : static_cast<std::uint32_t>(4 * i);
     f.datatype = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegral<std::uint8_t>()
                                                              : sensor_msgs::PointField::FLOAT32;
-    f.count = fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegral<std::uint32_t>() : 1;
+    f.count =
+        fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? fdp.ConsumeIntegral<std::uint32_t>() : 1;
     msg.fields.push_back(f);
   }
   msg.width = randomDimension(fdp, 40);
@@ -266,22 +292,71 @@ void fuzzPointCloud(FuzzedDataProvider& fdp) {
   CloudStats stats;
   const bool want_stats = fdp.ConsumeBool();
   const std::string err = pointCloud2ToPoints(msg, &points, want_stats ? &stats : nullptr);
+  CloudStats check_stats;
+  const std::string check_err = checkPointCloud2(msg, &check_stats);
+  FUZZ_CHECK(check_err.empty() == err.empty());
   if (!err.empty()) {
     FUZZ_CHECK(points.empty());
     return;
   }
-  for (const Eigen::Vector3f& p : points) FUZZ_CHECK(p.allFinite());
+  FUZZ_CHECK(check_stats.points == static_cast<std::size_t>(msg.width) * msg.height);
+  FUZZ_CHECK(points.size() + check_stats.non_finite == check_stats.points);
+  for (const Eigen::Vector3f& p : points)
+    FUZZ_CHECK(p.allFinite());
   if (want_stats) {
     FUZZ_CHECK(stats.points == static_cast<std::size_t>(msg.width) * msg.height);
     FUZZ_CHECK(points.size() + stats.non_finite == stats.points);
   }
 }
 
+void fuzzImage(FuzzedDataProvider& fdp) {
+  sensor_msgs::Image img;
+  img.encoding =
+      randomString(fdp, {"mono8", "8UC1", "bgr8", "rgb8", "bgra8", "rgba8", "mono16", "32FC1", ""});
+  img.is_bigendian = fdp.ConsumeBool();
+  img.width = randomDimension(fdp, 40);
+  img.height = randomDimension(fdp, 30);
+  const std::uint32_t channels = fdp.ConsumeIntegralInRange<std::uint32_t>(1, 4);
+  const std::uint32_t exact = img.width * channels;  // wraps on purpose
+  switch (fdp.ConsumeIntegralInRange<int>(0, 5)) {
+    case 0:
+      img.step = fdp.ConsumeIntegral<std::uint32_t>();
+      break;
+    case 1:
+      img.step = exact - fdp.ConsumeIntegralInRange<std::uint32_t>(1, 3);
+      break;
+    case 2:
+      img.step = exact + fdp.ConsumeIntegralInRange<std::uint32_t>(1, 9);
+      break;
+    default:
+      img.step = exact;
+      break;
+  }
+  std::size_t needed = static_cast<std::size_t>(img.step) * img.height;
+  if (fdp.ConsumeIntegralInRange<int>(0, 3) == 0) {
+    needed = fdp.ConsumeIntegralInRange<std::size_t>(0, needed > 0 ? needed - 1 : 0);
+  }
+  img.data.assign(std::min(needed, kMaxDataBytes), 0);
+  for (auto& b : img.data) {
+    if (fdp.remaining_bytes() == 0) break;
+    b = fdp.ConsumeIntegral<std::uint8_t>();
+  }
+  cv::Mat buffer, grey;
+  if (fdp.ConsumeBool()) buffer.create(2, 3, CV_32FC2);  // a reused buffer of another kind
+  const std::string err = rectifiedImageToGrey(img, "left", &buffer, &grey);
+  if (!err.empty()) return;
+  FUZZ_CHECK(grey.type() == CV_8UC1);
+  FUZZ_CHECK(static_cast<std::uint32_t>(grey.cols) == img.width &&
+             static_cast<std::uint32_t>(grey.rows) == img.height);
+  volatile std::uint8_t sink = 0;
+  for (int r = 0; r < grey.rows; ++r)
+    sink = sink + grey.ptr<std::uint8_t>(r)[grey.cols - 1];
+}
+
 void fuzzSafetyCost(FuzzedDataProvider& fdp) {
   const auto label = static_cast<SafetyLabel>(fdp.ConsumeIntegral<std::uint8_t>());
-  const std::int8_t cost =
-      safetyCost(label, fdp.ConsumeBool(), specialDouble(fdp, 0.0, 30.0),
-                 specialDouble(fdp, 0.0, 10.0), specialDouble(fdp, 5.0, 30.0));
+  const std::int8_t cost = safetyCost(label, fdp.ConsumeBool(), specialDouble(fdp, 0.0, 30.0),
+                                      specialDouble(fdp, 0.0, 10.0), specialDouble(fdp, 5.0, 30.0));
   FUZZ_CHECK(cost >= -1 && cost <= 100);
 }
 
@@ -289,9 +364,12 @@ void fuzzSafetyCost(FuzzedDataProvider& fdp) {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   FuzzedDataProvider fdp(data, size);
-  switch (fdp.ConsumeIntegralInRange<int>(0, 3)) {
+  switch (fdp.ConsumeIntegralInRange<int>(0, 4)) {
     case 0:
       fuzzCameraInfo(fdp);
+      break;
+    case 3:
+      fuzzImage(fdp);
       break;
     case 1:
       fuzzDisparityImage(fdp);

@@ -1,6 +1,7 @@
-// libFuzzer target: disparity post-filters, the disparity pipeline and reprojection on random
-// images (sizes, element types, row steps, regions of interest), random configurations (valid
-// and not) and random disparity values (NaN, inf, negative, huge).
+// libFuzzer target: disparity post-filters, the disparity pipeline, the degraded-camera check
+// (stereo_input_check.h) and reprojection on random images (sizes, element types, row steps,
+// regions of interest), random configurations (valid and not) and random disparity values (NaN,
+// inf, negative, huge).
 //
 // Contracts checked (disparity_filters.h): a filter that returns -1 leaves the image untouched;
 // otherwise it only turns valid pixels into exactly 0, as many as it returns, and never rewrites
@@ -10,6 +11,7 @@
 #include "stereo_safety_map/core/disparity_filters.h"
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/stereo_input_check.h"
 
 #include <opencv2/core.hpp>
 
@@ -47,7 +49,7 @@ void checkFilterResult(const cv::Mat& before, const cv::Mat& after, int result) 
     const float* a = after.ptr<float>(r);
     for (int c = 0; c < before.cols; ++c) {
       if (std::memcmp(&a[c], &b[c], sizeof(float)) == 0) continue;
-      FUZZ_CHECK(isValidDisparity(b[c]));   // only valid pixels are rewritten
+      FUZZ_CHECK(isValidDisparity(b[c]));     // only valid pixels are rewritten
       FUZZ_CHECK(a[c] == kInvalidDisparity);  // and only into exactly 0
       ++changed;
     }
@@ -58,7 +60,8 @@ void checkFilterResult(const cv::Mat& before, const cv::Mat& after, int result) 
 int randomType(FuzzedDataProvider& fdp, bool disparity) {
   static const int kDisparityTypes[] = {CV_32FC1, CV_32FC1, CV_32FC1, CV_32FC1, CV_32FC1,
                                         CV_32FC2, CV_64FC1, CV_16SC1, CV_8UC1};
-  static const int kImageTypes[] = {CV_8UC1, CV_8UC1, CV_8UC3, CV_8UC4, CV_16UC1, CV_32FC1, CV_8UC2};
+  static const int kImageTypes[] = {CV_8UC1,  CV_8UC1,  CV_8UC3, CV_8UC4,
+                                    CV_16UC1, CV_32FC1, CV_8UC2};
   return disparity ? fdp.PickValueInArray(kDisparityTypes) : fdp.PickValueInArray(kImageTypes);
 }
 
@@ -130,8 +133,8 @@ void fuzzFilters(FuzzedDataProvider& fdp, DisparityFilterWorkspace* ws) {
           lr = fdp.ConsumeIntegralInRange<int>(0, 48);
           lc = fdp.ConsumeIntegralInRange<int>(0, 64);
         }
-        const int type = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false)
-                                                                    : CV_8UC1;
+        const int type =
+            fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false) : CV_8UC1;
         const cv::Mat left = randomImage(fdp, lr, lc, type, 255.0f, &other_storage);
         result = filterLowTexture(left, config, &disparity, workspace);
         break;
@@ -175,8 +178,8 @@ void fuzzFilters(FuzzedDataProvider& fdp, DisparityFilterWorkspace* ws) {
           rr = fdp.ConsumeIntegralInRange<int>(0, 48);
           rc = fdp.ConsumeIntegralInRange<int>(0, 64);
         }
-        const int type = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, true)
-                                                                    : CV_32FC1;
+        const int type =
+            fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, true) : CV_32FC1;
         const cv::Mat right = randomImage(fdp, rr, rc, type, 80.0f, &other_storage);
         result = filterLeftRightInconsistent(right, config, &disparity);
         break;
@@ -216,15 +219,16 @@ void fuzzFilters(FuzzedDataProvider& fdp, DisparityFilterWorkspace* ws) {
   const int step = mostlyIntInRange(fdp, 1, 4);
   std::vector<Eigen::Vector3f> points;
   reprojectDisparity(disparity, model, min_depth, max_depth, step, &points);
-  for (const Eigen::Vector3f& p : points) FUZZ_CHECK(!std::isnan(p.z()));
+  for (const Eigen::Vector3f& p : points)
+    FUZZ_CHECK(!std::isnan(p.z()));
   cv::Mat xyz;
   reprojectDisparityOrganized(disparity, model, max_depth, &xyz);
 }
 
 void fuzzPipeline(FuzzedDataProvider& fdp, DisparityPipeline* pipeline) {
   DisparityPipelineConfig config;
-  config.matcher = fdp.ConsumeBool() ? StereoMatcherType::kBlockMatching
-                                     : StereoMatcherType::kSemiGlobal;
+  config.matcher =
+      fdp.ConsumeBool() ? StereoMatcherType::kBlockMatching : StereoMatcherType::kSemiGlobal;
   config.min_disparity = mostlyIntInRange(fdp, 0, 16, 16);
   // Multiples of 16 / odd values, and now and then an extreme int as it is (no overflow here).
   const int nd = mostlyIntInRange(fdp, 1, 2, 16);
@@ -253,8 +257,8 @@ void fuzzPipeline(FuzzedDataProvider& fdp, DisparityPipeline* pipeline) {
   const int rows = fdp.ConsumeIntegralInRange<int>(0, 40);
   const int cols = fdp.ConsumeIntegralInRange<int>(0, 112);
   const int left_type = randomType(fdp, false);
-  const int right_type = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false)
-                                                                   : left_type;
+  const int right_type =
+      fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false) : left_type;
   int right_rows = rows, right_cols = cols;
   if (fdp.ConsumeIntegralInRange<int>(0, 7) == 0) {
     right_rows = fdp.ConsumeIntegralInRange<int>(0, 40);
@@ -275,8 +279,7 @@ void fuzzPipeline(FuzzedDataProvider& fdp, DisparityPipeline* pipeline) {
   cv::Mat disparity;
   DisparityStats stats;
   std::string error;
-  const bool ok = pipeline->compute(left, right, &disparity,
-                                    fdp.ConsumeBool() ? &stats : nullptr,
+  const bool ok = pipeline->compute(left, right, &disparity, fdp.ConsumeBool() ? &stats : nullptr,
                                     fdp.ConsumeBool() ? &error : nullptr);
   if (ok) {
     FUZZ_CHECK(disparity.type() == CV_32FC1 && disparity.rows == rows && disparity.cols == cols);
@@ -285,6 +288,51 @@ void fuzzPipeline(FuzzedDataProvider& fdp, DisparityPipeline* pipeline) {
         const float d = disparity.at<float>(r, c);
         FUZZ_CHECK(isValidDisparity(d) || d == kInvalidDisparity);
       }
+    }
+  }
+}
+
+// The degraded-camera check (stereo_input_check.h) on random pairs of any type and size, views
+// and copies: never throws; refuses mismatched or non-8-bit-grey pairs as kBadImage and only
+// them; a pair checked twice in a row is never accepted the second time while frozen images
+// are rejected.
+void fuzzInputCheck(FuzzedDataProvider& fdp) {
+  StereoInputCheckConfig config;
+  config.min_contrast = fdp.ConsumeIntegralInRange<int>(0, 7) == 0
+                            ? ssm_fuzz::specialDouble(fdp, 0.0, 10.0)
+                            : fdp.ConsumeFloatingPointInRange<double>(0.0, 10.0);
+  config.reject_frozen = fdp.ConsumeBool();
+  if (!config.validate().empty()) {
+    bool threw = false;
+    try {
+      StereoInputCheck refused(config);
+    } catch (const std::invalid_argument&) {
+      threw = true;
+    }
+    FUZZ_CHECK(threw);
+    return;
+  }
+  StereoInputCheck check(config);
+  const int pairs = fdp.ConsumeIntegralInRange<int>(1, 4);
+  for (int i = 0; i < pairs && fdp.remaining_bytes() > 0; ++i) {
+    const int rows = fdp.ConsumeIntegralInRange<int>(0, 24);
+    const int cols = fdp.ConsumeIntegralInRange<int>(0, 32);
+    const int lt = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false) : CV_8UC1;
+    const int rt = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? randomType(fdp, false) : CV_8UC1;
+    const int rrows = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? rows + 1 : rows;
+    cv::Mat ls, rs;
+    const cv::Mat left =
+        rows > 0 && cols > 0 ? randomImage(fdp, rows, cols, lt, 64.0f, &ls) : cv::Mat();
+    const cv::Mat right =
+        rrows > 0 && cols > 0 ? randomImage(fdp, rrows, cols, rt, 64.0f, &rs) : cv::Mat();
+    std::string detail;
+    const StereoInputProblem p = check.check(left, right, &detail);
+    const bool usable = !left.empty() && !right.empty() && left.type() == CV_8UC1 &&
+                        right.type() == CV_8UC1 && left.size() == right.size();
+    FUZZ_CHECK((p == StereoInputProblem::kBadImage) == !usable);
+    FUZZ_CHECK((p == StereoInputProblem::kNone) == detail.empty());
+    if (usable && config.reject_frozen) {
+      FUZZ_CHECK(check.check(left.clone(), right.clone()) != StereoInputProblem::kNone);
     }
   }
 }
@@ -302,12 +350,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   DisparityFilterWorkspace workspace;
   DisparityPipeline pipeline;
   FuzzedDataProvider fdp(data, size);
-  if (fdp.ConsumeIntegralInRange<int>(0, 3) == 0) {
+  const int mode = fdp.ConsumeIntegralInRange<int>(0, 7);
+  if (mode == 0) {
+    fuzzInputCheck(fdp);
+  } else if (mode <= 2) {
     const int frames = fdp.ConsumeIntegralInRange<int>(1, 2);
-    for (int i = 0; i < frames; ++i) fuzzPipeline(fdp, &pipeline);
+    for (int i = 0; i < frames; ++i)
+      fuzzPipeline(fdp, &pipeline);
   } else {
     const int images = fdp.ConsumeIntegralInRange<int>(1, 2);
-    for (int i = 0; i < images; ++i) fuzzFilters(fdp, &workspace);
+    for (int i = 0; i < images; ++i)
+      fuzzFilters(fdp, &workspace);
   }
   return 0;
 }

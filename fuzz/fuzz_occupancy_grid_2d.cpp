@@ -62,7 +62,8 @@ Eigen::Isometry3f randomPose(FuzzedDataProvider& fdp) {
   const int pick = fdp.ConsumeIntegralInRange<int>(0, 15);
   if (pick == 0) {
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 4; ++c) T.matrix()(r, c) = specialFloat(fdp, -2.0f, 2.0f);
+      for (int c = 0; c < 4; ++c)
+        T.matrix()(r, c) = specialFloat(fdp, -2.0f, 2.0f);
     }
     return T;
   }
@@ -206,9 +207,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         }
         const StereoCameraModel m = randomModel(fdp, cols, rows);
         const Eigen::Isometry3f T = randomPose(fdp);
-        const float floor_z = fdp.ConsumeIntegralInRange<int>(0, 15) == 0
-                                  ? specialFloat(fdp, -1, 1)
-                                  : 0.0f;
+        const float floor_z =
+            fdp.ConsumeIntegralInRange<int>(0, 15) == 0 ? specialFloat(fdp, -1, 1) : 0.0f;
         grid.toImage(&before);
         const Grid2DUpdateStats s = grid.update(disparity, m, T, floor_z);
         if (!s.ok()) {

@@ -6,11 +6,14 @@
 //    and planes (NaN, inf, huge coefficients, too few, too many), through GroundSegmentation and
 //    SafetyLabelling directly; fitPlane on random points.
 //  - mapper: a small SafetyMapper fed random log-odds (grid().setLogOdds), random frames of
-//    points near stepped ground with special values mixed in, random poses and robot positions.
+//    points near stepped ground with special values mixed in, random poses and robot positions,
+//    frame stamps (going back, NaN, huge), aging (max_cell_age, ageSafetyMap) and reconfigure().
 //
 // Contracts checked: constructors throw std::invalid_argument exactly when validate() is not
 // empty; segments partition their cells, each of one indexed height; the safety map covers the
-// height map's window with one valid label, segment id and drop-off flag per cell.
+// height map's window with one valid label, segment id and drop-off flag per cell; aging only
+// ever turns a Level / Inclined cell into Unknown, and says how many; reconfigure() refuses
+// exactly the configurations validate() refuses and then changes nothing.
 #include "fuzz_common.h"
 
 #include "stereo_safety_map/core/ground_segmentation.h"
@@ -38,8 +41,8 @@ namespace {
 
 int saturatedSum(int a, int b) {
   const std::int64_t s = static_cast<std::int64_t>(a) + b;
-  return static_cast<int>(std::max<std::int64_t>(std::numeric_limits<int>::min(),
-                                                 std::min<std::int64_t>(std::numeric_limits<int>::max(), s)));
+  return static_cast<int>(std::max<std::int64_t>(
+      std::numeric_limits<int>::min(), std::min<std::int64_t>(std::numeric_limits<int>::max(), s)));
 }
 
 template <typename T, typename Config>
@@ -160,7 +163,8 @@ void checkMap(const HeightMap& hm, const SafetyMap& m) {
     if (m.drop_off[i]) FUZZ_CHECK(isSafe(m.labels[i]));
   }
   for (const SegmentInfo& s : m.segments) {
-    for (const int c : s.cells) FUZZ_CHECK(c >= 0 && static_cast<std::size_t>(c) < n);
+    for (const int c : s.cells)
+      FUZZ_CHECK(c >= 0 && static_cast<std::size_t>(c) < n);
     FUZZ_CHECK(static_cast<int>(s.label) <= static_cast<int>(SafetyLabel::kNonGround));
   }
 }
@@ -193,7 +197,9 @@ void fuzzUnits(FuzzedDataProvider& fdp) {
   // A height map window.
   HeightMap hm;
   const int extreme = fdp.ConsumeIntegralInRange<int>(0, 15);
-  const int min_u = extreme == 0 ? (1 << 30) - 40 : (extreme == 1 ? -(1 << 30) : fdp.ConsumeIntegralInRange<int>(-30, 30));
+  const int min_u = extreme == 0
+                        ? (1 << 30) - 40
+                        : (extreme == 1 ? -(1 << 30) : fdp.ConsumeIntegralInRange<int>(-30, 30));
   const int min_v = fdp.ConsumeIntegralInRange<int>(-30, 30);
   const int width = fdp.ConsumeIntegralInRange<int>(-2, 40);
   const int height = fdp.ConsumeIntegralInRange<int>(-2, 40);
@@ -204,10 +210,12 @@ void fuzzUnits(FuzzedDataProvider& fdp) {
   for (int p = 0; p < patches; ++p) {
     const int u0 = min_u + fdp.ConsumeIntegralInRange<int>(-2, 40);
     const int v0 = min_v + fdp.ConsumeIntegralInRange<int>(-2, 40);
-    const int pw = fdp.ConsumeIntegralInRange<int>(1, 20), ph = fdp.ConsumeIntegralInRange<int>(1, 20);
+    const int pw = fdp.ConsumeIntegralInRange<int>(1, 20),
+              ph = fdp.ConsumeIntegralInRange<int>(1, 20);
     const std::int32_t w = randomHeight(fdp, wild);
     for (int v = v0; v < v0 + ph; ++v) {
-      for (int u = u0; u < u0 + pw; ++u) hm.set(u, v, w);
+      for (int u = u0; u < u0 + pw; ++u)
+        hm.set(u, v, w);
     }
   }
   const int singles = fdp.ConsumeIntegralInRange<int>(0, 40);
@@ -228,8 +236,8 @@ void fuzzUnits(FuzzedDataProvider& fdp) {
     robot.u = mostlyIntInRange(fdp, -100, 100, 1);
     robot.v = mostlyIntInRange(fdp, -100, 100, 1);
   }
-  const double voxel_size = fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? specialDouble(fdp, 0.01, 1.0)
-                                                                       : 0.1;
+  const double voxel_size =
+      fdp.ConsumeIntegralInRange<int>(0, 7) == 0 ? specialDouble(fdp, 0.01, 1.0) : 0.1;
   GroundSegments segments;
   const bool segmented = segmentation.segment(hm, robot, voxel_size, &segments);
   if (!segmented) FUZZ_CHECK(segments.numSegments() == 0);
@@ -238,8 +246,10 @@ void fuzzUnits(FuzzedDataProvider& fdp) {
   // Planes: usually one per segment, sometimes too few or too many.
   std::vector<GroundPlane> planes;
   int num_planes = segments.numSegments();
-  if (fdp.ConsumeIntegralInRange<int>(0, 7) == 0) num_planes = fdp.ConsumeIntegralInRange<int>(0, num_planes + 3);
-  for (int k = 0; k < num_planes; ++k) planes.push_back(randomPlane(fdp));
+  if (fdp.ConsumeIntegralInRange<int>(0, 7) == 0)
+    num_planes = fdp.ConsumeIntegralInRange<int>(0, num_planes + 3);
+  for (int k = 0; k < num_planes; ++k)
+    planes.push_back(randomPlane(fdp));
 
   const SafetyLabellingConfig lc = randomLabellingConfig(fdp);
   if (!constructsExactlyWhenValid<SafetyLabelling>(lc)) return;
@@ -264,7 +274,8 @@ Eigen::Isometry3f randomCameraPose(FuzzedDataProvider& fdp, const Eigen::Vector3
   Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
   if (fdp.ConsumeIntegralInRange<int>(0, 15) == 0) {
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 4; ++c) T.matrix()(r, c) = specialFloat(fdp, -2.0f, 2.0f);
+      for (int c = 0; c < 4; ++c)
+        T.matrix()(r, c) = specialFloat(fdp, -2.0f, 2.0f);
     }
     return T;
   }
@@ -283,9 +294,8 @@ Eigen::Isometry3f randomCameraPose(FuzzedDataProvider& fdp, const Eigen::Vector3
 
 void fuzzMapper(FuzzedDataProvider& fdp) {
   SafetyMapperConfig c;
-  c.grid.voxel_size = fdp.ConsumeIntegralInRange<int>(0, 31) == 0
-                          ? specialDouble(fdp, 0.05, 0.3)
-                          : (fdp.ConsumeBool() ? 0.1 : 0.2);
+  c.grid.voxel_size = fdp.ConsumeIntegralInRange<int>(0, 31) == 0 ? specialDouble(fdp, 0.05, 0.3)
+                                                                  : (fdp.ConsumeBool() ? 0.1 : 0.2);
   c.grid.size_x = fdp.ConsumeFloatingPointInRange<double>(1.0, 4.0);
   c.grid.size_y = fdp.ConsumeFloatingPointInRange<double>(1.0, 4.0);
   c.grid.size_z = fdp.ConsumeFloatingPointInRange<double>(1.0, 2.5);
@@ -302,6 +312,9 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
   c.labelling = randomLabellingConfig(fdp);
   c.skip_stationary_frames = fdp.ConsumeBool();
   c.scroll_with_robot = fdp.ConsumeBool();
+  c.max_cell_age = fdp.ConsumeIntegralInRange<int>(0, 15) == 0
+                       ? specialDouble(fdp, 0.0, 10.0)
+                       : fdp.ConsumeFloatingPointInRange<double>(0.0, 3.0);
   if (!c.validate().empty()) {
     bool threw = false;
     try {
@@ -320,9 +333,23 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
 
   std::vector<Eigen::Vector3f> points;
   Eigen::Vector3f robot(0.0f, 0.0f, 0.0f);
+  double clock = 100.0;
+  // The next stamp: mostly forward, sometimes back, sometimes anything.
+  auto next_stamp = [&fdp, &clock]() {
+    switch (fdp.ConsumeIntegralInRange<int>(0, 15)) {
+      case 0:
+        return specialDouble(fdp, -1e3, 1e3);
+      case 1:
+        clock -= fdp.ConsumeFloatingPointInRange<double>(0.0, 5.0);
+        return clock;
+      default:
+        clock += fdp.ConsumeFloatingPointInRange<double>(0.0, 2.0);
+        return clock;
+    }
+  };
   const int ops = fdp.ConsumeIntegralInRange<int>(1, 8);
   for (int op = 0; op < ops && fdp.remaining_bytes() > 0; ++op) {
-    switch (fdp.ConsumeIntegralInRange<int>(0, 5)) {
+    switch (fdp.ConsumeIntegralInRange<int>(0, 7)) {
       case 0: {  // direct log-odds around the robot
         VoxelGrid& grid = mapper.grid();
         const VoxelIndex m = grid.minIndex();
@@ -349,6 +376,39 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
       case 2:
         mapper.reset();
         break;
+      case 3: {  // aging without a frame
+        const SafetyMap before = mapper.safetyMap();
+        const std::size_t aged = mapper.ageSafetyMap(next_stamp());
+        const SafetyMap& after = mapper.safetyMap();
+        FUZZ_CHECK(after.labels.size() == before.labels.size());
+        std::size_t changed = 0;
+        for (std::size_t k = 0; k < after.labels.size(); ++k) {
+          if (after.labels[k] == before.labels[k]) continue;
+          FUZZ_CHECK(isSafe(before.labels[k]) && after.labels[k] == SafetyLabel::kUnknown);
+          ++changed;
+        }
+        FUZZ_CHECK(changed == aged);
+        break;
+      }
+      case 4: {  // a new configuration, valid or not
+        SafetyMapperConfig n = mapper.config();
+        n.labelling = randomLabellingConfig(fdp);
+        n.max_cell_age = specialDouble(fdp, 0.0, 5.0);
+        if (fdp.ConsumeBool()) n.grid.decr = fdp.ConsumeIntegralInRange<int>(-1, 3);
+        const SafetyMapperConfig old = mapper.config();
+        const std::uint32_t frames = mapper.grid().frameCount();
+        bool grid_reset = false;
+        const std::string err = mapper.reconfigure(n, &grid_reset);
+        FUZZ_CHECK(err.empty() == n.validate().empty());
+        if (!err.empty()) {
+          FUZZ_CHECK(!grid_reset);
+          FUZZ_CHECK(mapper.config().grid.decr == old.grid.decr);
+          FUZZ_CHECK(mapper.grid().frameCount() == frames);
+        } else {
+          FUZZ_CHECK(grid_reset == (n.grid.decr != old.grid.decr));
+        }
+        break;
+      }
       default: {
         // A frame: points on stepped ground (fixed frame) seen from the camera, moved into the
         // camera frame; some special ones.
@@ -370,7 +430,8 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
         const int n = fdp.ConsumeIntegralInRange<int>(0, 400);
         const int special_one_in = fdp.ConsumeIntegralInRange<int>(4, 200);
         for (int i = 0; i < n; ++i) {
-          if (fdp.remaining_bytes() > 0 && fdp.ConsumeIntegralInRange<int>(1, special_one_in) == 1) {
+          if (fdp.remaining_bytes() > 0 &&
+              fdp.ConsumeIntegralInRange<int>(1, special_one_in) == 1) {
             points.emplace_back(specialFloat(fdp, -5, 5), specialFloat(fdp, -5, 5),
                                 specialFloat(fdp, -5, 5));
             continue;
@@ -385,7 +446,10 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
           points.push_back(T_inv * Eigen::Vector3f(x, y, z));
         }
         FrameResult result;
-        const bool ok = mapper.integrateFrame(points, T, robot_arg, &result);
+        const bool stamped = fdp.ConsumeBool();
+        const bool ok = stamped ? mapper.integrateFrame(points, T, robot_arg, next_stamp(), &result)
+                                : mapper.integrateFrame(points, T, robot_arg, &result);
+        if (!stamped) FUZZ_CHECK(result.cells_aged == 0 || std::isfinite(mapper.latestTime()));
         FUZZ_CHECK(ok == (result.status == FrameStatus::kIntegrated));
         if (ok) {
           checkMap(mapper.heightMap(), mapper.safetyMap());

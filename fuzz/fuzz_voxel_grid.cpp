@@ -57,7 +57,8 @@ Eigen::Isometry3f randomPose(FuzzedDataProvider& fdp) {
   switch (fdp.ConsumeIntegralInRange<int>(0, 7)) {
     case 0: {  // any 3x4 matrix, not rigid
       for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 4; ++c) T.matrix()(r, c) = specialFloat(fdp, -3.0f, 3.0f);
+        for (int c = 0; c < 4; ++c)
+          T.matrix()(r, c) = specialFloat(fdp, -3.0f, 3.0f);
       }
       return T;
     }
@@ -117,7 +118,8 @@ void checkWholeGrid(const VoxelGrid& grid) {
   const VoxelIndex m = grid.minIndex();
   for (int u = 0; u < grid.sizeU(); ++u) {
     for (int v = 0; v < grid.sizeV(); ++v) {
-      for (int w = 0; w < grid.sizeW(); ++w) checkVoxel(grid, VoxelIndex{m.u + u, m.v + v, m.w + w});
+      for (int w = 0; w < grid.sizeW(); ++w)
+        checkVoxel(grid, VoxelIndex{m.u + u, m.v + v, m.w + w});
     }
   }
 }
@@ -143,8 +145,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                         std::round(config.size_z / config.voxel_size);
   if (voxels > kMaxFuzzVoxels) return 0;
   VoxelGrid grid(config);
-  const std::size_t total =
-      static_cast<std::size_t>(grid.sizeU()) * grid.sizeV() * grid.sizeW();
+  const std::size_t total = static_cast<std::size_t>(grid.sizeU()) * grid.sizeV() * grid.sizeW();
   FUZZ_CHECK(grid.sizeU() >= 1 && grid.sizeV() >= 1 && grid.sizeW() >= 1);
 
   std::vector<Eigen::Vector3f> points;
@@ -192,8 +193,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         const IntegrationStats s = grid.integrate(points, T);
         FUZZ_CHECK(grid.frameCount() == frames + 1);
         FUZZ_CHECK(s.points_in == points.size());
-        FUZZ_CHECK(s.points_in == s.points_non_finite + s.points_out_of_range +
-                                      s.points_duplicate + s.points_used);
+        FUZZ_CHECK(s.points_in == s.points_non_finite + s.points_out_of_range + s.points_duplicate +
+                                      s.points_used);
         FUZZ_CHECK(s.points_outside_grid <= s.points_used);
         break;
       }

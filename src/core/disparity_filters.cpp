@@ -159,8 +159,10 @@ int filterNonUniqueMatches(const cv::Mat& cost_volume, int min_disparity,
     for (int x = 0; x < disparity->cols; ++x) {
       const float d = drow[x];
       if (!isValidDisparity(d)) continue;
-      const long k1 = std::lround(d) - min_disparity;
-      bool reject = k1 < 0 || k1 >= num_disp;
+      // In double: a huge disparity must not overflow on its way to an index (fuzzing found it).
+      const double kd = std::round(static_cast<double>(d)) - min_disparity;
+      bool reject = !(kd >= 0.0 && kd < num_disp);
+      const long k1 = reject ? 0 : static_cast<long>(kd);
       if (!reject) {
         const float* cost = cost_volume.ptr<float>(y, x);
         const float best = cost[k1];
@@ -214,8 +216,10 @@ int filterLeftRightInconsistent(const cv::Mat& right_disparity, const LeftRightC
     for (int x = 0; x < cols; ++x) {
       const float d = left_row[x];
       if (!isValidDisparity(d)) continue;
-      // d is finite and > 0, so the rounding cannot overflow.
-      const int xr = static_cast<int>(std::floor(static_cast<float>(x) - d + 0.5f));
+      // d is finite and > 0, so x - d + 0.5 <= x + 0.5 fits an int once it is >= 0 (a huge d
+      // does not: fuzzing found it).
+      const float xf = std::floor(static_cast<float>(x) - d + 0.5f);
+      const int xr = xf >= 0.0f ? static_cast<int>(xf) : -1;
       bool reject;
       if (xr < 0) {
         reject = true;  // the match lies outside the right image: nothing can confirm it

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <exception>
+#include <limits>
 #include <sstream>
 
 namespace stereo_safety_map {
@@ -202,7 +203,11 @@ DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineCo
   // OpenCV's customary SGBM penalties for one channel.
   const int area = c.block_size * c.block_size;
   k.p1 = c.sgbm_p1 > 0 ? c.sgbm_p1 : 8 * area;
-  k.p2 = c.sgbm_p2 > 0 ? c.sgbm_p2 : std::max(32 * area, k.p1 + 1);
+  // In 64 bits: p1 + 1 overflows an int for p1 = INT_MAX (fuzzing found it).
+  k.p2 = c.sgbm_p2 > 0 ? c.sgbm_p2
+                       : static_cast<int>(std::min<long long>(
+                             std::numeric_limits<int>::max(),
+                             std::max<long long>(32LL * area, static_cast<long long>(k.p1) + 1)));
   k.three_way = c.sgbm_three_way;
   return k;
 }

@@ -34,9 +34,13 @@ namespace {
 
 // Squared radius in cells, widened by a hair so that a radius that is a whole number of cells
 // includes the cells exactly on it despite rounding of R / l_v.
+// Clamped to 2^60: a radius of any size over a tiny voxel converts without overflow (beyond the
+// window anyway).
 long long radiusSquaredCells(double radius, double voxel_size) {
   const double r = radius / voxel_size;
-  return static_cast<long long>(std::floor(r * r + 1e-6));
+  const double r2 = std::floor(r * r + 1e-6);
+  constexpr double kMax = 1152921504606846976.0;  // 2^60
+  return !(r2 < kMax) ? static_cast<long long>(kMax) : static_cast<long long>(r2);
 }
 
 }  // namespace

@@ -43,8 +43,8 @@ void forEachOverlappedSpan(const Eigen::Vector2f* p, int n, int nx, int ny, F&& 
     ymax = std::max(ymax, p[k].y());
   }
   if (!(ymax >= 0.0f) || !(ymin < static_cast<float>(ny))) return;
-  const int j0 = std::max(0, static_cast<int>(std::floor(ymin)));
-  const int j1 = std::min(ny - 1, static_cast<int>(std::floor(ymax)));
+  const int j0 = static_cast<int>(std::floor(std::max(ymin, 0.0f)));
+  const int j1 = static_cast<int>(std::floor(std::min(ymax, static_cast<float>(ny - 1))));
   for (int j = j0; j <= j1; ++j) {
     const float ya = std::max(static_cast<float>(j), ymin);
     const float yb = std::min(static_cast<float>(j + 1), ymax);
@@ -69,8 +69,8 @@ void forEachOverlappedSpan(const Eigen::Vector2f* p, int n, int nx, int ny, F&& 
       xmax = std::max(xmax, std::max(x0, x1));
     }
     if (!(xmax >= 0.0f) || !(xmin < static_cast<float>(nx))) continue;
-    const int i0 = std::max(0, static_cast<int>(std::floor(xmin)));
-    const int i1 = std::min(nx - 1, static_cast<int>(std::floor(xmax)));
+    const int i0 = static_cast<int>(std::floor(std::max(xmin, 0.0f)));
+    const int i1 = static_cast<int>(std::floor(std::min(xmax, static_cast<float>(nx - 1))));
     if (i0 <= i1 && !f(j, i0, i1)) return;
   }
 }
@@ -85,8 +85,8 @@ void forEachCentreSpan(const Eigen::Vector2f* p, int n, int nx, int ny, F&& f) {
     ymax = std::max(ymax, p[k].y());
   }
   if (!(ymax >= 0.0f) || !(ymin < static_cast<float>(ny))) return;
-  const int j0 = std::max(0, static_cast<int>(std::ceil(ymin - 0.5f)));
-  const int j1 = std::min(ny - 1, static_cast<int>(std::floor(ymax - 0.5f)));
+  const int j0 = static_cast<int>(std::ceil(std::max(ymin - 0.5f, 0.0f)));
+  const int j1 = static_cast<int>(std::floor(std::min(ymax - 0.5f, static_cast<float>(ny - 1))));
   for (int j = j0; j <= j1; ++j) {
     const float yc = static_cast<float>(j) + 0.5f;
     float xl = kInfF, xr = -kInfF;
@@ -103,8 +103,8 @@ void forEachCentreSpan(const Eigen::Vector2f* p, int n, int nx, int ny, F&& f) {
     }
     if (crossings < 2) continue;
     if (!(xr >= 0.0f) || !(xl < static_cast<float>(nx))) continue;
-    const int i0 = std::max(0, static_cast<int>(std::ceil(xl - 0.5f)));
-    const int i1 = std::min(nx - 1, static_cast<int>(std::floor(xr - 0.5f)));
+    const int i0 = static_cast<int>(std::ceil(std::max(xl - 0.5f, 0.0f)));
+    const int i1 = static_cast<int>(std::floor(std::min(xr - 0.5f, static_cast<float>(nx - 1))));
     if (i0 <= i1 && !f(j, i0, i1)) return;
   }
 }
@@ -318,9 +318,15 @@ OccupancyGrid2D::OccupancyGrid2D(const OccupancyGrid2DConfig& config) : config_(
 }
 
 GridCell2D OccupancyGrid2D::indexOf(const Eigen::Vector2f& xy) const {
+  // Clamped so that any coordinate (even 1e30, fuzzing found it) converts to int and the
+  // difference of two indices still fits one; a clamped index is far outside any window.
+  static constexpr double kLimit = 1 << 28;
   const double inv = 1.0 / config_.resolution;
-  return GridCell2D{static_cast<int>(std::floor(xy.x() * inv + 0.5)),
-                    static_cast<int>(std::floor(xy.y() * inv + 0.5))};
+  auto index = [inv](float x) {
+    const double s = std::floor(x * inv + 0.5);
+    return static_cast<int>(std::isnan(s) ? 0.0 : std::clamp(s, -kLimit, kLimit));
+  };
+  return GridCell2D{index(xy.x()), index(xy.y())};
 }
 
 Eigen::Vector2f OccupancyGrid2D::centerOf(const GridCell2D& c) const {

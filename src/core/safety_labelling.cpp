@@ -368,8 +368,13 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
 
   if (!config_.mark_drop_offs) return true;
   // Potential drop-off edges (000, Sec. VI), see SafetyLabellingConfig.
+  // Any radius beyond the map's diagonal reaches the whole map: clamped there, so that a tiny
+  // voxel size cannot overflow the conversion (fuzzing found it).
   const double rr = config_.drop_off_radius / l;
-  const long long r2 = static_cast<long long>(std::floor(rr * rr + 1e-6));
+  const double diagonal2 =
+      static_cast<double>(width) * width + static_cast<double>(hm.height()) * hm.height();
+  const long long r2 =
+      static_cast<long long>(std::floor(std::min(rr * rr + 1e-6, diagonal2 + 1.0)));
   const int rc = static_cast<int>(std::floor(std::sqrt(static_cast<double>(r2))));
   for (int k = 0; k < nseg; ++k) {
     const SegmentInfo& info = m.segments[k];

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace stereo_safety_map {
@@ -63,6 +64,9 @@ std::string SafetyMapperConfig::validate() const {
     return "grid_look_ahead must be in [0, min(size_x, size_y) / 2 - planning_radius] = [0, " +
            std::to_string(std::max(0.0, max_look_ahead)) + "] m";
   }
+  if (!std::isfinite(max_cell_age) || max_cell_age < 0.0 || max_cell_age > 86400.0) {
+    return "max_cell_age must be in [0, 86400] s (0 = off)";
+  }
   return "";
 }
 
@@ -73,6 +77,17 @@ const SafetyMapperConfig& checked(const SafetyMapperConfig& c) {
   if (!err.empty()) throw std::invalid_argument("SafetyMapperConfig: " + err);
   return c;
 }
+
+bool sameGrid(const VoxelGridConfig& a, const VoxelGridConfig& b) {
+  return a.voxel_size == b.voxel_size && a.size_x == b.size_x && a.size_y == b.size_y &&
+         a.size_z == b.size_z && a.z_below_robot == b.z_below_robot && a.incr_high == b.incr_high &&
+         a.incr_low == b.incr_low && a.decr == b.decr && a.occ_threshold == b.occ_threshold &&
+         a.lop_min == b.lop_min && a.lop_max == b.lop_max &&
+         a.point_list_capacity == b.point_list_capacity && a.max_range == b.max_range &&
+         a.min_range == b.min_range;
+}
+
+constexpr double kNoTime = std::numeric_limits<double>::quiet_NaN();
 
 bool isRigid(const Eigen::Isometry3f& T) {
   if (!T.matrix().allFinite()) return false;
@@ -89,10 +104,40 @@ SafetyMapper::SafetyMapper(const SafetyMapperConfig& config)
       height_map_(config_.height_map),
       segmentation_(config_.segmentation),
       plane_fitter_(config_.plane_fit),
-      labelling_(config_.labelling) {}
+      labelling_(config_.labelling),
+      latest_time_(kNoTime) {
+  observation_age_.resize(grid_.sizeU(), grid_.sizeV());
+}
+
+std::string SafetyMapper::reconfigure(const SafetyMapperConfig& config, bool* grid_reset) {
+  if (grid_reset != nullptr) *grid_reset = false;
+  const std::string err = config.validate();
+  if (!err.empty()) return err;
+  const bool new_grid = !sameGrid(config.grid, config_.grid);
+  // Constructed before anything is assigned: validated above, they do not throw.
+  HeightMap height_map(config.height_map);
+  GroundSegmentation segmentation(config.segmentation);
+  PlaneFitter plane_fitter(config.plane_fit);
+  SafetyLabelling labelling(config.labelling);
+  if (new_grid) grid_ = VoxelGrid(config.grid);
+  height_map_ = std::move(height_map);
+  segmentation_ = std::move(segmentation);
+  plane_fitter_ = std::move(plane_fitter);
+  labelling_ = std::move(labelling);
+  config_ = config;
+  if (new_grid) {
+    observation_age_.resize(grid_.sizeU(), grid_.sizeV());
+    reset();
+    if (grid_reset != nullptr) *grid_reset = true;
+  }
+  return "";
+}
 
 void SafetyMapper::reset() {
   grid_.clear();
+  observation_age_.clear();
+  latest_time_ = kNoTime;
+  cells_aged_ = 0;
   map_ = SafetyMap();
   segments_ = GroundSegments();
   planes_.clear();
@@ -113,6 +158,45 @@ bool SafetyMapper::isStationary(const Eigen::Isometry3f& T_fixed_sensor) const {
 bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
                                   const Eigen::Isometry3f& T_fixed_sensor,
                                   const Eigen::Vector3f& robot_base_position, FrameResult* out) {
+  return integrate(points_sensor, T_fixed_sensor, robot_base_position, kNoTime, out);
+}
+
+bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
+                                  const Eigen::Isometry3f& T_fixed_sensor,
+                                  const Eigen::Vector3f& robot_base_position, double stamp,
+                                  FrameResult* out) {
+  // A non-finite stamp is no stamp.
+  return integrate(points_sensor, T_fixed_sensor, robot_base_position,
+                   std::isfinite(stamp) ? stamp : kNoTime, out);
+}
+
+void SafetyMapper::observe(const std::vector<Eigen::Vector3f>& points_sensor,
+                           const Eigen::Isometry3f& T_fixed_sensor, double stamp) {
+  if (!(config_.max_cell_age > 0.0) || !std::isfinite(stamp)) return;
+  const float lo = static_cast<float>(config_.grid.min_range);
+  const float hi = static_cast<float>(config_.grid.max_range);
+  for (const Eigen::Vector3f& p : points_sensor) {
+    if (!p.allFinite()) continue;
+    const float range = p.norm();            // the camera is the sensor frame's origin
+    if (range < lo || range > hi) continue;  // the grid ignores these points as well
+    const VoxelIndex i = grid_.indexOf(T_fixed_sensor * p);
+    if (grid_.contains(i)) observation_age_.observe(i.u, i.v, stamp);
+  }
+}
+
+std::size_t SafetyMapper::ageSafetyMap(double now) {
+  if (!std::isfinite(now)) return 0;
+  if (!std::isfinite(latest_time_) || now > latest_time_) latest_time_ = now;
+  if (!(config_.max_cell_age > 0.0)) return 0;
+  const std::size_t n = observation_age_.apply(latest_time_, config_.max_cell_age, &map_);
+  cells_aged_ += n;
+  return n;
+}
+
+bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
+                             const Eigen::Isometry3f& T_fixed_sensor,
+                             const Eigen::Vector3f& robot_base_position, double stamp,
+                             FrameResult* out) {
   FrameResult local;
   FrameResult& r = out != nullptr ? *out : local;
   r = FrameResult();
@@ -124,8 +208,13 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
   if (!robot_base_position.allFinite()) return skip(FrameStatus::kInvalidRobotPosition);
   if (points_sensor.empty()) return skip(FrameStatus::kEmptyInput);
 
-  // 000 Sec. IV: discard frames taken while the camera has not moved.
-  if (isStationary(T_fixed_sensor)) return skip(FrameStatus::kStationary);
+  // 000 Sec. IV: discard frames taken while the camera has not moved. The camera still sees
+  // what it saw: the columns its points fall into count as observed (observation_age.h).
+  if (isStationary(T_fixed_sensor)) {
+    observe(points_sensor, T_fixed_sensor, stamp);
+    if (std::isfinite(stamp)) r.cells_aged = ageSafetyMap(stamp);
+    return skip(FrameStatus::kStationary);
+  }
 
   const Clock::time_point t0 = Clock::now();
   // Recentre on the robot before checking the camera: it must lie inside the window that the
@@ -148,6 +237,8 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
     return skip(FrameStatus::kCameraOutsideGrid);
   }
   r.integration = grid_.integrate(points_sensor, T_fixed_sensor);
+  observe(points_sensor, T_fixed_sensor, stamp);
+  if (std::isfinite(stamp) && !(stamp <= latest_time_)) latest_time_ = stamp;
   const double integrate_ms = msSince(t0);
   last_pose_ = T_fixed_sensor;
   has_last_pose_ = true;
@@ -157,6 +248,7 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
   timings_.integrate_ms = integrate_ms;
   timings_.total_ms = msSince(t0);
   r.timings = timings_;
+  r.cells_aged = cells_aged_;
   r.status = FrameStatus::kIntegrated;
   return true;
 }
@@ -188,6 +280,11 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   if (!finite) {
     map_.robot_u = 0;
     map_.robot_v = 0;
+  }
+  // What the map can no longer vouch for, at the latest time seen (observation_age.h).
+  cells_aged_ = 0;
+  if (std::isfinite(latest_time_) && config_.max_cell_age > 0.0) {
+    cells_aged_ = observation_age_.apply(latest_time_, config_.max_cell_age, &map_);
   }
   timings_.labelling_ms = msSince(t);
   timings_.total_ms = msSince(t0);

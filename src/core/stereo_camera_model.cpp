@@ -49,8 +49,10 @@ void reprojectDisparity(const cv::Mat& disparity, const StereoCameraModel& model
   if (!usable(disparity, model) || step < 1 || std::isnan(min_depth) || std::isnan(max_depth)) {
     return;
   }
-  const std::size_t max_points = static_cast<std::size_t>((disparity.rows + step - 1) / step) *
-                                 static_cast<std::size_t>((disparity.cols + step - 1) / step);
+  // In size_t: rows + step - 1 overflows an int for a huge step (fuzzing found it).
+  const std::size_t st = static_cast<std::size_t>(step);
+  const std::size_t max_points = ((static_cast<std::size_t>(disparity.rows) + st - 1) / st) *
+                                 ((static_cast<std::size_t>(disparity.cols) + st - 1) / st);
   // One allocation on the first call, none afterwards (capacity is kept by clear()).
   if (points->capacity() < max_points) points->reserve(max_points);
 

@@ -419,12 +419,17 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
     return;
   const int e[3] = {static_cast<int>(r[0]), static_cast<int>(r[1]), static_cast<int>(r[2])};
   const double b[3] = {ep.s[0] - min_.u, ep.s[1] - min_.v, ep.s[2] - min_.w};
-  castRay(a, b, e, stats);
+  // A huge coordinate over a tiny voxel scales to inf: then there is no ray to trace nor an aft
+  // neighbour to find (fuzzing found it), only the endpoint.
+  const bool traceable = std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]) &&
+                         std::isfinite(b[0]) && std::isfinite(b[1]) && std::isfinite(b[2]);
+  if (traceable) castRay(a, b, e, stats);
 
   if (inside) {
     addIncrement(k, config_.incr_high);
     insertPoint(k, ep.pf, ep.range);
   }
+  if (!traceable) return;
   // Aft neighbour: the voxel the ray enters when it leaves e beyond the point.
   const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   int ax = -1;

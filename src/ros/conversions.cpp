@@ -1,9 +1,10 @@
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <image_geometry/pinhole_camera_model.h>
-#include <image_geometry/stereo_camera_model.h>
 #include <sensor_msgs/image_encodings.h>
+
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -26,12 +27,17 @@ bool positiveFinite(double v) {
   return std::isfinite(v) && v > 0.0;
 }
 
-// Checks the fields image_geometry divides by, before it does (it does not check them).
+}  // namespace
+
 std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which) {
   const std::string name = std::string(which) + " CameraInfo";
   if (info.width == 0 || info.height == 0) return name + " has an empty image size";
   for (double p : info.P) {
     if (!std::isfinite(p)) return name + " has a non-finite value in P";
+  }
+  if (info.P[11] != 0.0) {
+    // image_geometry asserts it (P(2, 3) == 0) in places: an assertion aborts the process.
+    return name + " has P[11] = " + str(info.P[11]) + ", must be 0 for a rectified camera";
   }
   if (!positiveFinite(info.P[0]) || !positiveFinite(info.P[5])) {
     return name + " has zero focal length (P[0] = " + str(info.P[0]) +
@@ -39,8 +45,6 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* whi
   }
   return "";
 }
-
-}  // namespace
 
 std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
                        double max_slope_deg) {
@@ -71,20 +75,36 @@ std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
     return "left and right CameraInfo sizes differ (" + str(left.width) + "x" + str(left.height) +
            " vs " + str(right.width) + "x" + str(right.height) + ")";
   }
-  image_geometry::StereoCameraModel stereo;
+  // Each camera through image_geometry::PinholeCameraModel (binning and ROI applied), the pair
+  // checked here: image_geometry::StereoCameraModel::fromCameraInfo() asserts that fx, fy, cy and
+  // the frame ids agree, and an assertion aborts the whole nodelet manager (fuzzing found it).
+  // image_geometry throws from more than fromCameraInfo() (reducedResolution() of an ROI to
+  // rectify with an unknown distortion model: fuzzing found it); everything it computes is read
+  // inside the try.
+  image_geometry::PinholeCameraModel lm, rm;
+  cv::Size size;
   try {
-    stereo.fromCameraInfo(left, right);
+    lm.fromCameraInfo(left);
+    rm.fromCameraInfo(right);
+    size = lm.reducedResolution();
   } catch (const std::exception& e) {
     return std::string("image_geometry refused the CameraInfo pair: ") + e.what();
   }
-  const cv::Size size = stereo.left().reducedResolution();
+  auto differ = [](double a, double b) {
+    return std::abs(a - b) > 1e-6 * std::max(1.0, std::abs(a));
+  };
+  if (differ(lm.fx(), rm.fx()) || differ(lm.fy(), rm.fy()) || differ(lm.cy(), rm.cy())) {
+    return "left and right CameraInfo are not a rectified pair: fx " + str(lm.fx()) + " / " +
+           str(rm.fx()) + ", fy " + str(lm.fy()) + " / " + str(rm.fy()) + ", cy " + str(lm.cy()) +
+           " / " + str(rm.cy()) + " must agree";
+  }
   StereoCameraModel m;
-  m.fx = stereo.left().fx();
-  m.fy = stereo.left().fy();
-  m.cx = stereo.left().cx();
-  m.cy = stereo.left().cy();
-  m.cx_right = stereo.right().cx();
-  m.baseline = stereo.baseline();
+  m.fx = lm.fx();
+  m.fy = lm.fy();
+  m.cx = lm.cx();
+  m.cy = lm.cy();
+  m.cx_right = rm.cx();
+  m.baseline = -rm.Tx() / rm.fx();  // as image_geometry::StereoCameraModel::baseline()
   m.width = size.width;
   m.height = size.height;
   err = m.validate();
@@ -105,12 +125,13 @@ std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity
   std::string err = checkCameraInfo(left_info, "left");
   if (!err.empty()) return err;
   image_geometry::PinholeCameraModel left;
+  cv::Size size;
   try {
     left.fromCameraInfo(left_info);
+    size = left.reducedResolution();  // throws too (see cameraModelFromCameraInfo)
   } catch (const std::exception& e) {
     return std::string("image_geometry refused the left CameraInfo: ") + e.what();
   }
-  const cv::Size size = left.reducedResolution();
   if (static_cast<int>(disparity.image.width) != size.width ||
       static_cast<int>(disparity.image.height) != size.height) {
     return "DisparityImage size " + str(disparity.image.width) + "x" + str(disparity.image.height) +
@@ -131,9 +152,10 @@ std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity
   return "";
 }
 
-std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
-                                DisparityImageStats* stats) {
-  const sensor_msgs::Image& img = msg.image;
+namespace {
+
+// The structure of a DisparityImage's image: encoding, byte order, step, data size.
+std::string checkDisparityStructure(const sensor_msgs::Image& img) {
   if (img.encoding != sensor_msgs::image_encodings::TYPE_32FC1) {
     return "DisparityImage has unsupported encoding '" + img.encoding + "' (need 32FC1)";
   }
@@ -149,33 +171,69 @@ std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat*
     return "DisparityImage data has " + str(img.data.size()) + " bytes, " + str(needed) +
            " needed for " + str(img.width) + "x" + str(img.height) + " with step " + str(img.step);
   }
+  return "";
+}
+
+// Visits every pixel of a DisparityImage whose structure was checked: f(row, col, value) with
+// the value made invalid (0) when not finite or outside [min_disparity, max_disparity].
+template <typename F>
+DisparityImageStats scanDisparity(const stereo_msgs::DisparityImage& msg, F&& f) {
+  const sensor_msgs::Image& img = msg.image;
   const float lo = msg.min_disparity;
   const float hi = msg.max_disparity;
   const bool use_range = std::isfinite(lo) && std::isfinite(hi) && hi > lo;
-  out->create(static_cast<int>(img.height), static_cast<int>(img.width), CV_32FC1);
   DisparityImageStats s;
   s.pixels = static_cast<std::size_t>(img.width) * img.height;
-  for (int r = 0; r < out->rows; ++r) {
+  for (std::uint32_t r = 0; r < img.height; ++r) {
     const std::uint8_t* src = img.data.data() + static_cast<std::size_t>(r) * img.step;
-    float* dst = out->ptr<float>(r);
-    std::memcpy(dst, src, row_bytes);  // the data need not be aligned for float
-    for (int c = 0; c < out->cols; ++c) {
-      if (!std::isfinite(dst[c])) {
+    for (std::uint32_t c = 0; c < img.width; ++c) {
+      float d;
+      std::memcpy(&d, src + c * sizeof(float), sizeof(float));  // need not be aligned
+      if (!std::isfinite(d)) {
         ++s.non_finite;
-        dst[c] = 0.0f;
-      } else if (use_range && (dst[c] < lo || dst[c] > hi)) {
+        d = 0.0f;
+      } else if (use_range && (d < lo || d > hi)) {
         ++s.out_of_range;
-        dst[c] = 0.0f;
+        d = 0.0f;
       }
+      f(r, c, d);
     }
   }
+  return s;
+}
+
+}  // namespace
+
+std::string checkDisparityImage(const stereo_msgs::DisparityImage& msg,
+                                DisparityImageStats* stats) {
+  if (!positiveFinite(msg.f)) {
+    return "DisparityImage has zero or non-finite focal length f = " + str(msg.f);
+  }
+  if (!positiveFinite(msg.T)) {
+    return "DisparityImage has zero or non-finite baseline T = " + str(msg.T);
+  }
+  const std::string err = checkDisparityStructure(msg.image);
+  if (!err.empty()) return err;
+  const DisparityImageStats s = scanDisparity(msg, [](std::uint32_t, std::uint32_t, float) {});
   if (stats != nullptr) *stats = s;
   return "";
 }
 
-std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
-                                std::vector<Eigen::Vector3f>* points, CloudStats* stats) {
-  points->clear();
+std::string disparityImageToMat(const stereo_msgs::DisparityImage& msg, cv::Mat* out,
+                                DisparityImageStats* stats) {
+  const std::string err = checkDisparityStructure(msg.image);
+  if (!err.empty()) return err;
+  out->create(static_cast<int>(msg.image.height), static_cast<int>(msg.image.width), CV_32FC1);
+  const DisparityImageStats s = scanDisparity(
+      msg, [out](std::uint32_t r, std::uint32_t c, float d) { out->ptr<float>(r)[c] = d; });
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+namespace {
+
+// The structure of a PointCloud2: fields x, y, z, byte order, steps, data size.
+std::string checkCloudStructure(const sensor_msgs::PointCloud2& msg) {
   if (msg.is_bigendian) return "PointCloud2 is big-endian (unsupported)";
   const char* names[3] = {"x", "y", "z"};
   for (const char* name : names) {
@@ -183,6 +241,13 @@ std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
         std::find_if(msg.fields.begin(), msg.fields.end(),
                      [name](const sensor_msgs::PointField& f) { return f.name == name; });
     if (it == msg.fields.end()) return std::string("PointCloud2 has no field '") + name + "'";
+    const auto same_name =
+        std::count_if(msg.fields.begin(), msg.fields.end(),
+                      [name](const sensor_msgs::PointField& f) { return f.name == name; });
+    if (same_name > 1) {
+      return std::string("PointCloud2 has ") + str(same_name) + " fields named '" + name +
+             "' (ambiguous)";
+    }
     if (it->datatype != sensor_msgs::PointField::FLOAT32 || it->count != 1) {
       return std::string("PointCloud2 field '") + name + "' is not a single FLOAT32 (datatype " +
              str(static_cast<int>(it->datatype)) + ", count " + str(it->count) + ")";
@@ -202,47 +267,123 @@ std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
     return "PointCloud2 data has " + str(msg.data.size()) + " bytes, row_step x height = " +
            str(static_cast<std::size_t>(msg.row_step) * msg.height) + " needed";
   }
-  CloudStats s;
-  s.points = n;
-  points->reserve(n);
-  // The iterator walks point_step by point_step; rows with padding (row_step > width *
-  // point_step) are iterated row by row.
-  for (std::uint32_t r = 0; r < msg.height; ++r) {
-    const std::uint8_t* row = msg.data.data() + static_cast<std::size_t>(r) * msg.row_step;
-    if (msg.row_step == msg.width * msg.point_step) {
-      if (r > 0) break;  // dense: the iterator below covers every row at once
-      sensor_msgs::PointCloud2ConstIterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z");
-      for (std::size_t i = 0; i < n; ++i, ++x, ++y, ++z) {
-        const Eigen::Vector3f p(*x, *y, *z);
-        if (p.allFinite()) {
-          points->push_back(p);
-        } else {
-          ++s.non_finite;
-        }
-      }
-      break;
-    }
-    int ox = 0, oy = 0, oz = 0;
+  return "";
+}
+
+}  // namespace
+
+namespace {
+
+// Byte offsets of x, y, z (checkCloudStructure() made sure there is one field of each name).
+void xyzOffsets(const sensor_msgs::PointCloud2& msg, std::uint32_t off[3]) {
+  const char* names[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) {
+    off[a] = 0;
     for (const auto& f : msg.fields) {
-      if (f.name == "x") ox = static_cast<int>(f.offset);
-      if (f.name == "y") oy = static_cast<int>(f.offset);
-      if (f.name == "z") oz = static_cast<int>(f.offset);
-    }
-    for (std::uint32_t c = 0; c < msg.width; ++c) {
-      const std::uint8_t* pt = row + static_cast<std::size_t>(c) * msg.point_step;
-      float xyz[3];
-      std::memcpy(&xyz[0], pt + ox, sizeof(float));
-      std::memcpy(&xyz[1], pt + oy, sizeof(float));
-      std::memcpy(&xyz[2], pt + oz, sizeof(float));
-      const Eigen::Vector3f p(xyz[0], xyz[1], xyz[2]);
-      if (p.allFinite()) {
-        points->push_back(p);
-      } else {
-        ++s.non_finite;
+      if (f.name == names[a]) {
+        off[a] = f.offset;
+        break;
       }
     }
   }
+}
+
+// Visits every point of a cloud whose structure was checked: f(x, y, z), row by row (rows may
+// be padded: row_step >= width x point_step).
+template <typename F>
+void forEachPoint(const sensor_msgs::PointCloud2& msg, F&& f) {
+  std::uint32_t off[3];
+  xyzOffsets(msg, off);
+  for (std::uint32_t r = 0; r < msg.height; ++r) {
+    const std::uint8_t* row = msg.data.data() + static_cast<std::size_t>(r) * msg.row_step;
+    for (std::uint32_t c = 0; c < msg.width; ++c) {
+      const std::uint8_t* pt = row + static_cast<std::size_t>(c) * msg.point_step;
+      float xyz[3];
+      for (int a = 0; a < 3; ++a)
+        std::memcpy(&xyz[a], pt + off[a], sizeof(float));  // need not be aligned
+      f(xyz[0], xyz[1], xyz[2]);
+    }
+  }
+}
+
+}  // namespace
+
+std::string checkPointCloud2(const sensor_msgs::PointCloud2& msg, CloudStats* stats) {
+  const std::string err = checkCloudStructure(msg);
+  if (!err.empty()) return err;
+  CloudStats s;
+  s.points = static_cast<std::size_t>(msg.width) * msg.height;
+  forEachPoint(msg, [&s](float x, float y, float z) {
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) ++s.non_finite;
+  });
   if (stats != nullptr) *stats = s;
+  return "";
+}
+
+std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
+                                std::vector<Eigen::Vector3f>* points, CloudStats* stats) {
+  points->clear();
+  const std::string err = checkCloudStructure(msg);
+  if (!err.empty()) return err;
+  CloudStats s;
+  s.points = static_cast<std::size_t>(msg.width) * msg.height;
+  points->reserve(s.points);
+  forEachPoint(msg, [&s, points](float x, float y, float z) {
+    const Eigen::Vector3f p(x, y, z);
+    if (p.allFinite()) {
+      points->push_back(p);
+    } else {
+      ++s.non_finite;
+    }
+  });
+  if (stats != nullptr) *stats = s;
+  return "";
+}
+
+std::string rectifiedImageToGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                                 cv::Mat* grey) {
+  namespace enc = sensor_msgs::image_encodings;
+  int channels = 0;
+  int code = -1;
+  if (msg.encoding == enc::MONO8 || msg.encoding == enc::TYPE_8UC1) {
+    channels = 1;
+  } else if (msg.encoding == enc::BGR8) {
+    channels = 3;
+    code = cv::COLOR_BGR2GRAY;
+  } else if (msg.encoding == enc::RGB8) {
+    channels = 3;
+    code = cv::COLOR_RGB2GRAY;
+  } else if (msg.encoding == enc::BGRA8) {
+    channels = 4;
+    code = cv::COLOR_BGRA2GRAY;
+  } else if (msg.encoding == enc::RGBA8) {
+    channels = 4;
+    code = cv::COLOR_RGBA2GRAY;
+  } else {
+    return std::string(which) + " image has unsupported encoding '" + msg.encoding +
+           "' (need an 8-bit rectified image: mono8, bgr8, rgb8, bgra8 or rgba8)";
+  }
+  if (msg.width == 0 || msg.height == 0) return std::string(which) + " image is empty";
+  const std::size_t row_bytes = static_cast<std::size_t>(msg.width) * channels;
+  if (msg.step < row_bytes) {
+    return std::string(which) + " image step " + std::to_string(msg.step) +
+           " is smaller than width x channels = " + std::to_string(row_bytes);
+  }
+  const std::size_t needed = static_cast<std::size_t>(msg.step) * (msg.height - 1) + row_bytes;
+  if (msg.data.size() < needed) {
+    return std::string(which) + " image data has " + std::to_string(msg.data.size()) + " bytes, " +
+           std::to_string(needed) + " needed for " + str(msg.width) + "x" + str(msg.height) + " " +
+           msg.encoding + " with step " + std::to_string(msg.step);
+  }
+  // A view onto the message (read only: the pipeline does not write its inputs).
+  const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), CV_8UC(channels),
+                     const_cast<std::uint8_t*>(msg.data.data()), msg.step);
+  if (channels == 1) {
+    *grey = view;
+  } else {
+    cv::cvtColor(view, *buffer, code);
+    *grey = *buffer;
+  }
   return "";
 }
 
@@ -457,36 +598,36 @@ void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header
   sensor_msgs::PointCloud2Modifier modifier(*out);
   modifier.setPointCloud2FieldsByString(1, "xyz");
   const VoxelIndex gmin = grid.minIndex();
-  std::size_t count = 0;
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass == 1) modifier.resize(count);
-    sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
+  auto for_each_occupied = [&grid, &gmin](const auto& f) {
     for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
       for (int v = gmin.v; v < gmin.v + grid.sizeV(); ++v) {
         for (int u = gmin.u; u < gmin.u + grid.sizeU(); ++u) {
           const VoxelIndex i{u, v, w};
-          if (!grid.isOccupied(i)) continue;
-          const VoxelPointList list = grid.points(i);
-          if (pass == 0) {
-            count += list.size;
-            continue;
-          }
-          for (const VoxelPoint& p : list) {
-            *x = p.position.x();
-            *y = p.position.y();
-            *z = p.position.z();
-            ++x;
-            ++y;
-            ++z;
-          }
+          if (grid.isOccupied(i)) f(grid.points(i));
         }
       }
     }
-  }
+  };
+  std::size_t count = 0;
+  for_each_occupied([&count](const VoxelPointList& list) { count += list.size; });
+  modifier.resize(count);
   out->height = 1;
   out->width = static_cast<std::uint32_t>(count);
   out->row_step = out->width * out->point_step;
   out->is_dense = true;
+  // An iterator over an empty cloud reads data.front() of an empty vector (UBSan found it).
+  if (count == 0) return;
+  sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
+  for_each_occupied([&x, &y, &z](const VoxelPointList& list) {
+    for (const VoxelPoint& p : list) {
+      *x = p.position.x();
+      *y = p.position.y();
+      *z = p.position.z();
+      ++x;
+      ++y;
+      ++z;
+    }
+  });
 }
 
 void toStageTimingsMsg(const StageTimings& timings, const std_msgs::Header& header,

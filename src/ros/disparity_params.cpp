@@ -236,6 +236,7 @@ std::string DisparityRosConfig::validate() const {
   RangeCheck r;
   r.closed("queue_size", queue_size, 1, 1000);
   r.openClosed("cloud_max_depth", cloud_max_depth, 0.0, 1000.0);
+  r.closed("min_image_contrast", min_image_contrast, 0.0, 128.0);
   return r.error();
 }
 
@@ -244,6 +245,8 @@ std::string fromRosParam(const ros::NodeHandle& pnh, DisparityRosConfig* c) {
   r.read("queue_size", &c->queue_size);
   r.read("approximate_sync", &c->approximate_sync);
   r.read("cloud_max_depth", &c->cloud_max_depth);
+  r.read("min_image_contrast", &c->min_image_contrast);
+  r.read("reject_frozen_images", &c->reject_frozen_images);
   return r.result(c->validate());
 }
 
@@ -260,7 +263,8 @@ std::vector<std::string> disparityParameterNames() {
           "neighbour_min_agreeing_fraction", "neighbour_remove_isolated", "enable_spike_removal",
           "spike_max_difference", "spike_min_region_size",
           // DisparityRosConfig
-          "queue_size", "approximate_sync", "cloud_max_depth",
+          "queue_size", "approximate_sync", "cloud_max_depth", "min_image_contrast",
+          "reject_frozen_images",
           // read by diagnostic_updater and image_transport (transport hints)
           "diagnostic_period", "image_transport"};
 }

@@ -51,8 +51,19 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("disparity", this, &DisparityRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
+  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
+  // in the future and publish nothing: force it.
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
+        const ros::Time now = ros::Time::now();
+        if (now < last_diagnostics_time_) {
+          diagnostics_->force_update();
+        } else {
+          diagnostics_->update();
+        }
+        last_diagnostics_time_ = now;
+      });
   window_start_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -68,6 +79,10 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
   pipeline_.setConfig(pipeline_config_);
+  StereoInputCheckConfig check;
+  check.min_contrast = ros_config_.min_image_contrast;
+  check.reject_frozen = ros_config_.reject_frozen_images;
+  input_check_.setConfig(check);  // validated above: does not throw
   matcher_in_use_ = matcherName(pipeline_config_.matcher);
 
   // Synchronize the inputs; the topics are subscribed on demand in connectCb().
@@ -235,53 +250,6 @@ void DisparityRos::reject(const std::string& reason, const std::string& detail) 
   if (log) ROS_WARN_STREAM(name_ << ": " << detail);
 }
 
-std::string DisparityRos::toGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
-                                 cv::Mat* grey) const {
-  namespace enc = sensor_msgs::image_encodings;
-  int channels = 0;
-  int code = -1;
-  if (msg.encoding == enc::MONO8 || msg.encoding == enc::TYPE_8UC1) {
-    channels = 1;
-  } else if (msg.encoding == enc::BGR8) {
-    channels = 3;
-    code = cv::COLOR_BGR2GRAY;
-  } else if (msg.encoding == enc::RGB8) {
-    channels = 3;
-    code = cv::COLOR_RGB2GRAY;
-  } else if (msg.encoding == enc::BGRA8) {
-    channels = 4;
-    code = cv::COLOR_BGRA2GRAY;
-  } else if (msg.encoding == enc::RGBA8) {
-    channels = 4;
-    code = cv::COLOR_RGBA2GRAY;
-  } else {
-    return std::string(which) + " image has unsupported encoding '" + msg.encoding +
-           "' (need an 8-bit rectified image: mono8, bgr8, rgb8, bgra8 or rgba8)";
-  }
-  if (msg.width == 0 || msg.height == 0) return std::string(which) + " image is empty";
-  const std::size_t row_bytes = static_cast<std::size_t>(msg.width) * channels;
-  if (msg.step < row_bytes) {
-    return std::string(which) + " image step " + std::to_string(msg.step) +
-           " is smaller than width x channels = " + std::to_string(row_bytes);
-  }
-  const std::size_t needed = static_cast<std::size_t>(msg.step) * (msg.height - 1) + row_bytes;
-  if (msg.data.size() < needed) {
-    return std::string(which) + " image data has " + std::to_string(msg.data.size()) + " bytes, " +
-           std::to_string(needed) + " needed for " + sizeString(msg.width, msg.height) + " " +
-           msg.encoding + " with step " + std::to_string(msg.step);
-  }
-  // A view onto the message (read only: the pipeline does not write its inputs).
-  const cv::Mat view(static_cast<int>(msg.height), static_cast<int>(msg.width), CV_8UC(channels),
-                     const_cast<std::uint8_t*>(msg.data.data()), msg.step);
-  if (channels == 1) {
-    *grey = view;
-  } else {
-    cv::cvtColor(view, *buffer, code);
-    *grey = *buffer;
-  }
-  return "";
-}
-
 void DisparityRos::processFrame(const Frame& frame) {
   const auto t0 = std::chrono::steady_clock::now();
 
@@ -329,11 +297,17 @@ void DisparityRos::processFrame(const Frame& frame) {
     return;
   }
   cv::Mat left_grey, right_grey;
-  err = toGrey(left, "left", &left_buffer_, &left_grey);
-  if (err.empty()) err = toGrey(right, "right", &right_buffer_, &right_grey);
+  err = rectifiedImageToGrey(left, "left", &left_buffer_, &left_grey);
+  if (err.empty()) err = rectifiedImageToGrey(right, "right", &right_buffer_, &right_grey);
   if (!err.empty()) {
     const bool encoding = err.find("encoding") != std::string::npos;
     reject(encoding ? "unsupported encoding" : "bad image", "dropped a stereo frame: " + err);
+    return;
+  }
+  // A covered, black or frozen camera: matching would give confident-looking wrong disparities.
+  const StereoInputProblem problem = input_check_.check(left_grey, right_grey, &err);
+  if (problem != StereoInputProblem::kNone) {
+    reject(toString(problem), "dropped a stereo frame: " + err);
     return;
   }
 

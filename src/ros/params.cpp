@@ -153,6 +153,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* c) {
   r.read("grid_look_ahead", &c->grid_look_ahead);
   r.read("stationary_rotation_deg", &c->stationary_rotation_deg);
   r.read("scroll_with_robot", &c->scroll_with_robot);
+  r.read("max_cell_age", &c->max_cell_age);
   return r.result(c->validate());
 }
 
@@ -176,6 +177,11 @@ std::string SafetyMapRosConfig::validate() const {
     os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
   } else if (save_prefix.empty()) {
     os << "save_prefix is empty, must be a path prefix such as /tmp/safety_map";
+  } else if (!std::isfinite(max_tf_wait) || max_tf_wait <= 0.0 || max_tf_wait > 3600.0) {
+    os << "max_tf_wait = " << max_tf_wait << ", must be in (0, 3600] s";
+  } else if (!std::isfinite(stale_input_timeout) || stale_input_timeout <= 0.0 ||
+             stale_input_timeout > 3600.0) {
+    os << "stale_input_timeout = " << stale_input_timeout << ", must be in (0, 3600] s";
   }
   return os.str();
 }
@@ -192,6 +198,9 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* c) {
   r.read("disparity_step", &c->disparity_step);
   r.read("time_jump_reset", &c->time_jump_reset);
   r.read("save_prefix", &c->save_prefix);
+  r.read("reject_frozen_input", &c->reject_frozen_input);
+  r.read("stale_input_timeout", &c->stale_input_timeout);
+  r.read("max_tf_wait", &c->max_tf_wait);
   return r.result(c->validate());
 }
 
@@ -213,10 +222,11 @@ std::vector<std::string> safetyMapParameterNames() {
       "drop_off_min_drop",
       // SafetyMapperConfig
       "skip_stationary_frames", "stationary_translation", "stationary_rotation_deg",
-      "grid_look_ahead", "scroll_with_robot",
+      "grid_look_ahead", "scroll_with_robot", "max_cell_age",
       // SafetyMapRosConfig
       "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
-      "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix",
+      "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix", "reject_frozen_input",
+      "stale_input_timeout", "max_tf_wait",
       // Obstacle cue (obstacle_params.h)
       "obstacle_cue", "obstacle_cue_lifetime", "obstacle_cue_min_points",
       // diagnostic_updater's own

@@ -9,14 +9,17 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
-#include <visualization_msgs/MarkerArray.h>
 #include <boost/bind/bind.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -28,26 +31,53 @@ namespace {
 constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
 constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 constexpr std::size_t kMaxArrivals = 64;
+constexpr double kAgePeriod = 1.0;  // [s] between two agings of the map by the clock
 
-// Writes `bytes` to `path` through a temporary file in the same folder and a rename, so that a
-// reader never sees a half-written file.
-std::string writeFileAtomically(const std::string& path, const std::string& bytes) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) return "cannot open " + tmp + " for writing";
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.close();
-    if (!f) {
-      std::remove(tmp.c_str());
-      return "cannot write " + tmp;
+// A file of ~save: its final path, the temporary one it is written to first, its bytes.
+struct SaveFile {
+  std::string path;
+  std::string tmp;
+  std::string bytes;
+};
+
+// A temporary name next to `path` that no other save (of this or another nodelet in this
+// process, or another process) uses at the same time.
+std::string temporaryName(const std::string& path) {
+  static std::atomic<std::uint64_t> counter{0};
+  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+}
+
+// Writes every file to its temporary name, then renames them all: a reader never sees a
+// half-written file, and the set is replaced at once (but for the few renames). On failure the
+// temporary files are removed and the message says what failed.
+std::string writeFilesAtomically(std::vector<SaveFile>* files) {
+  std::string err;
+  for (SaveFile& f : *files) {
+    f.tmp = temporaryName(f.path);
+    std::ofstream out(f.tmp, std::ios::binary | std::ios::trunc);
+    if (!out) {
+      err = "cannot open " + f.tmp + " for writing";
+      break;
+    }
+    out.write(f.bytes.data(), static_cast<std::streamsize>(f.bytes.size()));
+    out.close();
+    if (!out) {
+      err = "cannot write " + f.tmp;
+      break;
     }
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    return "cannot rename " + tmp + " to " + path;
+  for (const SaveFile& f : *files) {
+    if (!err.empty()) break;
+    if (std::rename(f.tmp.c_str(), f.path.c_str()) != 0) {
+      err = "cannot rename " + f.tmp + " to " + f.path;
+    }
   }
-  return "";
+  if (!err.empty()) {
+    // Temporary names are unique: removing one that was renamed already fails harmlessly.
+    for (const SaveFile& f : *files)
+      if (!f.tmp.empty()) std::remove(f.tmp.c_str());
+  }
+  return err;
 }
 
 }  // namespace
@@ -57,9 +87,20 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
-  window_start_ = ros::WallTime::now();
+  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
+  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
+  // in the future and publish nothing: force it.
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
+        const ros::Time now = ros::Time::now();
+        if (now < last_diagnostics_time_) {
+          diagnostics_->force_update();
+        } else {
+          diagnostics_->update();
+        }
+        last_diagnostics_time_ = now;
+      });
+  window_start_ = started_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
@@ -87,6 +128,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   min_depth_ = mapper_config_.grid.min_range;
   max_depth_ = mapper_config_.grid.max_range;
   max_rate_ = ros_config_.max_rate;
+  max_cell_age_ = mapper_config_.max_cell_age;
 
   map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("safety_map", 1, true);
   labels_pub_ = nh_.advertise<SafetyMapMsg>("safety_map_labels", 1, true);
@@ -112,6 +154,8 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
                                         boost::placeholders::_2));
 
   worker_ = std::thread(&SafetyMapRos::workerLoop, this);
+  age_timer_ = nh_.createWallTimer(ros::WallDuration(kAgePeriod),
+                                   [this](const ros::WallTimerEvent&) { ageTimerCb(); });
   setUpInputs();
   setUpObstacleCue();
   ROS_INFO_STREAM(name_ << ": building the safety map in '" << ros_config_.fixed_frame << "' from "
@@ -120,22 +164,28 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 SafetyMapRos::~SafetyMapRos() {
-  // Inputs first, so that no callback enqueues while the worker stops.
+  // Everything that calls back into this object first, each shutdown waiting for a callback in
+  // progress: timers, services, the reconfigure server (before the mutex it uses), subscribers.
+  // Then the filters, then the worker. Only then are the members destroyed.
+  age_timer_.stop();
+  diagnostics_timer_.stop();
+  reset_srv_.shutdown();
+  save_srv_.shutdown();
+  reconfigure_.reset();
+  disparity_sub_.shutdown();
+  left_info_sub_.shutdown();
+  right_info_sub_.shutdown();
+  cloud_sub_.shutdown();
   exact_sync_.reset();
   approximate_sync_.reset();
   disparity_filter_.reset();
   cloud_filter_.reset();
-  disparity_sub_.reset();
-  left_info_sub_.reset();
-  right_info_sub_.reset();
-  cloud_sub_.reset();
   {
     std::lock_guard<std::mutex> lock(slot_mutex_);
     stop_ = true;
   }
   slot_cv_.notify_all();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
 }
 
 void SafetyMapRos::setUpInputs() {
@@ -146,45 +196,97 @@ void SafetyMapRos::setUpInputs() {
     tfFailure(msg->header, r);
   };
   if (ros_config_.input == "cloud") {
-    cloud_sub_ =
-        std::make_unique<message_filters::Subscriber<sensor_msgs::PointCloud2>>(nh_, "points", q);
-    cloud_sub_->registerCallback(
-        [this](const sensor_msgs::PointCloud2ConstPtr& m) { noteArrival(m->header); });
     cloud_filter_ =
-        std::make_unique<CloudFilter>(*cloud_sub_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
+        std::make_unique<CloudFilter>(cloud_in_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
     cloud_filter_->registerCallback(
         boost::bind(&SafetyMapRos::cloudCb, this, boost::placeholders::_1));
     cloud_filter_->registerFailureCallback(
         [failure](const sensor_msgs::PointCloud2ConstPtr& m,
                   tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
+    cloud_sub_ = nh_.subscribe("points", q, &SafetyMapRos::cloudIn, this);
     return;
   }
-  disparity_sub_ = std::make_unique<message_filters::Subscriber<stereo_msgs::DisparityImage>>(
-      nh_, "stereo/disparity", q);
-  left_info_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
-      nh_, "stereo/left/camera_info", q);
-  right_info_sub_ = std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
-      nh_, "stereo/right/camera_info", q);
-  disparity_sub_->registerCallback(
-      [this](const stereo_msgs::DisparityImageConstPtr& m) { noteArrival(m->header); });
-  disparity_filter_ = std::make_unique<DisparityFilter>(*disparity_sub_, *tf_buffer_,
+  disparity_filter_ = std::make_unique<DisparityFilter>(disparity_in_, *tf_buffer_,
                                                         ros_config_.fixed_frame, q, nh_);
   disparity_filter_->registerFailureCallback(
       [failure](const stereo_msgs::DisparityImageConstPtr& m,
                 tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
   if (ros_config_.approximate_sync) {
     approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
-        ApproximatePolicy(q), *disparity_filter_, *left_info_sub_, *right_info_sub_);
+        ApproximatePolicy(q), *disparity_filter_, left_info_in_, right_info_in_);
     approximate_sync_->registerCallback(
         boost::bind(&SafetyMapRos::disparityCb, this, boost::placeholders::_1,
                     boost::placeholders::_2, boost::placeholders::_3));
   } else {
     exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(q), *disparity_filter_, *left_info_sub_, *right_info_sub_);
+        ExactPolicy(q), *disparity_filter_, left_info_in_, right_info_in_);
     exact_sync_->registerCallback(boost::bind(&SafetyMapRos::disparityCb, this,
                                               boost::placeholders::_1, boost::placeholders::_2,
                                               boost::placeholders::_3));
   }
+  // Subscribed last: the chain behind them is complete.
+  left_info_sub_ = nh_.subscribe("stereo/left/camera_info", q, &SafetyMapRos::leftInfoIn, this);
+  right_info_sub_ = nh_.subscribe("stereo/right/camera_info", q, &SafetyMapRos::rightInfoIn, this);
+  disparity_sub_ = nh_.subscribe("stereo/disparity", q, &SafetyMapRos::disparityIn, this);
+}
+
+void SafetyMapRos::disparityIn(const stereo_msgs::DisparityImageConstPtr& msg) {
+  noteArrival(msg->header);
+  DisparityImageStats stats;
+  const std::string err = checkDisparityImage(*msg, &stats);
+  if (!err.empty()) {
+    reject("bad disparity image", "dropped a disparity frame: " + err);
+    return;
+  }
+  if (stats.non_finite + stats.out_of_range >= stats.pixels) {
+    std::ostringstream os;
+    os << "dropped a disparity frame without a valid pixel (" << stats.non_finite
+       << " NaN / inf and " << stats.out_of_range << " outside [min_disparity, max_disparity]"
+       << " of " << stats.pixels << "): camera covered, black or failing?";
+    reject(stats.non_finite > 0 ? "non-finite input" : "no valid data", os.str());
+    return;
+  }
+  disparity_in_.add(msg);
+}
+
+void SafetyMapRos::leftInfoIn(const sensor_msgs::CameraInfoConstPtr& msg) {
+  const std::string err = checkCameraInfo(*msg, "left");
+  if (!err.empty()) {
+    reject("bad camera model", "dropped a CameraInfo: " + err);
+    return;
+  }
+  left_info_in_.add(msg);
+}
+
+void SafetyMapRos::rightInfoIn(const sensor_msgs::CameraInfoConstPtr& msg) {
+  std::string err = checkCameraInfo(*msg, "right");
+  if (err.empty() && !(msg->P[3] < 0.0)) {
+    err = "right CameraInfo has zero baseline (P[3] = Tx = -fx B = " + std::to_string(msg->P[3]) +
+          ", must be < 0)";
+  }
+  if (!err.empty()) {
+    reject("bad camera model", "dropped a CameraInfo: " + err);
+    return;
+  }
+  right_info_in_.add(msg);
+}
+
+void SafetyMapRos::cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg) {
+  noteArrival(msg->header);
+  CloudStats stats;
+  const std::string err = checkPointCloud2(*msg, &stats);
+  if (!err.empty()) {
+    reject("bad point cloud", "dropped a cloud: " + err);
+    return;
+  }
+  if (stats.non_finite >= stats.points) {
+    std::ostringstream os;
+    os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "
+       << stats.points << ")";
+    reject("non-finite input", os.str());
+    return;
+  }
+  cloud_in_.add(msg);
 }
 
 void SafetyMapRos::noteArrival(const std_msgs::Header& header) {
@@ -192,6 +294,7 @@ void SafetyMapRos::noteArrival(const std_msgs::Header& header) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_received_;
     ++window_received_;
+    last_arrival_ = ros::WallTime::now();
   }
   std::lock_guard<std::mutex> lock(arrival_mutex_);
   arrivals_.emplace_back(header.stamp, Clock::now());
@@ -239,6 +342,15 @@ void SafetyMapRos::tfFailure(const std_msgs::Header& header,
 void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
                                const sensor_msgs::CameraInfoConstPtr& left,
                                const sensor_msgs::CameraInfoConstPtr& right) {
+  // The frame as a whole, before it can take a valid frame's place in the slot.
+  StereoCameraModel camera;
+  std::string err = cameraModelFromCameraInfo(*left, *right, &camera);
+  if (err.empty()) err = cameraModelForDisparity(*disparity, *left, &camera);
+  if (!err.empty()) {
+    tfWaitMs(disparity->header);  // forget its arrival
+    reject("bad camera model", "dropped a disparity frame: " + err);
+    return;
+  }
   auto frame = std::make_unique<Frame>();
   frame->header = disparity->header;
   frame->disparity = disparity;
@@ -258,11 +370,44 @@ void SafetyMapRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
 
 void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
   bool dropped = false;
+  std::string out_of_order;
   {
     std::lock_guard<std::mutex> lock(slot_mutex_);
     if (stop_) return;
-    dropped = static_cast<bool>(slot_);
-    slot_ = std::move(frame);
+    const ros::Time stamp = frame->header.stamp;
+    if (!newest_stamp_.isZero() && stamp <= newest_stamp_) {
+      // Time went back. A restart (a bag played again) moves the clock back as well: the map is
+      // reset once. A frame from the past while the clock runs on is stale: dropped, the map
+      // kept, whatever its age (one stale message must not wipe the map).
+      const double back = (newest_stamp_ - stamp).toSec();
+      const ros::Time now = ros::Time::now();
+      const ros::Duration jump(ros_config_.time_jump_reset);
+      const bool clock_back = now.isZero() || now + jump < newest_stamp_;
+      if (back > ros_config_.time_jump_reset && clock_back) {
+        frame->reset_map = true;
+      } else {
+        std::ostringstream os;
+        os << "dropped a frame out of order: stamp " << stamp << " is " << back
+           << " s older than the newest frame ("
+           << (back > ros_config_.time_jump_reset
+                   ? "the clock did not go back with it: a stale message"
+                   : "less than time_jump_reset = " + std::to_string(ros_config_.time_jump_reset) +
+                         " s")
+           << "; the map is kept)";
+        out_of_order = os.str();
+      }
+    }
+    if (out_of_order.empty()) {
+      newest_stamp_ = stamp;
+      // A waiting restart is not lost with the frame that carries it.
+      if (slot_ && slot_->reset_map) frame->reset_map = true;
+      dropped = static_cast<bool>(slot_);
+      slot_ = std::move(frame);
+    }
+  }
+  if (!out_of_order.empty()) {
+    reject("out of order", out_of_order);
+    return;
   }
   slot_cv_.notify_one();
   if (dropped) {
@@ -321,22 +466,27 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   const Clock::time_point t0 = Clock::now();
   const ros::Time stamp = frame.header.stamp;
 
-  // Time going backwards: a bag restarted (reset once, with one warning) or a late frame.
-  bool reset_for_time = false;
-  if (!last_stamp_.isZero() && stamp < last_stamp_) {
-    const double back = (last_stamp_ - stamp).toSec();
-    if (back > ros_config_.time_jump_reset) {
-      ROS_WARN_STREAM(name_ << ": time went back by " << back << " s (stamp " << stamp << " after "
-                            << last_stamp_ << "; a bag restarted?): resetting the map");
-      reset_for_time = true;
-    } else {
-      std::ostringstream os;
-      os << "dropped a frame out of order: stamp " << stamp << " is " << back
-         << " s older than the last frame (less than time_jump_reset = "
-         << ros_config_.time_jump_reset << " s, so the map is kept)";
-      reject("out of order", os.str());
-      return;
-    }
+  // Time went back with the clock (enqueue() decided): a bag restarted. Reset once, one warning.
+  const bool reset_for_time = frame.reset_map;
+  if (reset_for_time) {
+    ROS_WARN_STREAM(name_ << ": time went back by " << (last_stamp_ - stamp).toSec() << " s (stamp "
+                          << stamp << " after " << last_stamp_
+                          << ", the clock went back too; a bag restarted?): resetting the map");
+  } else if (!last_stamp_.isZero() && stamp <= last_stamp_) {
+    reject("out of order", "dropped a frame out of order: stamp " + std::to_string(stamp.toSec()) +
+                               " is not newer than the last frame's");
+    return;
+  }
+
+  // A transform that came long after its frame: tf stalled, and the pose of a frame in the gap
+  // would be interpolated between samples seconds apart, not measured.
+  if (frame.tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
+    std::ostringstream os;
+    os << "dropped a frame at t = " << stamp << ": its transform came " << frame.tf_wait_ms / 1000.0
+       << " s after it (more than max_tf_wait = " << ros_config_.max_tf_wait
+       << " s): tf stalled, the pose would be interpolated across the gap";
+    reject("stale tf", os.str());
+    return;
   }
 
   // Transforms: the sensor's is available (the tf2 MessageFilter waited for it); the base's
@@ -380,6 +530,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       return;
     }
     non_finite = stats.non_finite;
+    if (frozen(frame)) return;
     reprojectDisparity(disparity_, camera_, min_depth_, max_depth_, ros_config_.disparity_step,
                        &points_);
     if (points_.empty()) {
@@ -398,6 +549,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       return;
     }
     non_finite = stats.non_finite;
+    if (frozen(frame)) return;
     if (points_.empty()) {
       std::ostringstream os;
       os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "
@@ -457,20 +609,25 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       }
       if (points_.empty()) return;  // no landmark permanent yet: nothing for the grid
     }
-    mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, &result);
+    mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, stamp.toSec(), &result);
+    std_msgs::Header header;
+    header.stamp = stamp;
+    header.frame_id = ros_config_.fixed_frame;
     if (result.status == FrameStatus::kIntegrated) {
       robot_position_ = robot_position;
       applyObstacleCue(stamp, robot_position);
-      std_msgs::Header header;
-      header.stamp = stamp;
-      header.frame_id = ros_config_.fixed_frame;
       publishOutputs(header, robot_position);
+    } else if (result.status == FrameStatus::kStationary && result.cells_aged > 0) {
+      publishMap(header);  // a stationary frame aged the map
     }
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    cells_aged_ = mapper_->cellsAged();
   }
 
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   if (result.status == FrameStatus::kIntegrated || result.status == FrameStatus::kStationary) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
+    last_used_ = ros::WallTime::now();
     if (result.status == FrameStatus::kStationary) {
       ++frames_stationary_;
     } else {
@@ -486,16 +643,63 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   reject("refused by the core", std::string("frame ") + toString(result.status));
 }
 
-void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
-                                  const Eigen::Vector3f& robot_position) {
+bool SafetyMapRos::frozen(const Frame& frame) {
+  if (!ros_config_.reject_frozen_input) return false;
+  const std::vector<std::uint8_t>& data =
+      frame.disparity ? frame.disparity->image.data : frame.cloud->data;
+  const std::uint32_t width = frame.disparity ? frame.disparity->image.width : frame.cloud->width;
+  const std::uint32_t height =
+      frame.disparity ? frame.disparity->image.height : frame.cloud->height;
+  // A real camera's noise never repeats a frame byte for byte; a frozen driver re-sends its last
+  // buffer with new stamps. Integrated with new poses, it would paint the old view where the
+  // robot is now (and clear free space through whatever is really there).
+  const bool same = !previous_input_stamp_.isZero() &&
+                    frame.header.stamp != previous_input_stamp_ && width == previous_input_width_ &&
+                    height == previous_input_height_ && data.size() == previous_input_.size() &&
+                    std::memcmp(data.data(), previous_input_.data(), data.size()) == 0;
+  previous_input_.assign(data.begin(), data.end());
+  previous_input_stamp_ = frame.header.stamp;
+  previous_input_width_ = width;
+  previous_input_height_ = height;
+  if (!same) return false;
+  reject("frozen input", std::string("dropped a frame whose ") +
+                             (frame.disparity ? "disparity" : "cloud") +
+                             " is byte for byte the previous frame's under a new stamp: camera or "
+                             "driver frozen? (a noiseless simulator: set reject_frozen_input "
+                             "false)");
+  return true;
+}
+
+void SafetyMapRos::ageTimerCb() {
+  const ros::Time now = ros::Time::now();
+  if (!mapper_ || now.isZero()) return;  // sim time without a clock yet: no time passes
+  std::lock_guard<std::mutex> lock(core_mutex_);
+  if (mapper_->safetyMap().width <= 0) return;
+  // Frames age the map at their stamps; this ages it while they do not come.
+  if (mapper_->ageSafetyMap(now.toSec()) == 0) return;
+  std_msgs::Header header;
+  header.stamp = now;
+  header.frame_id = ros_config_.fixed_frame;
+  publishMap(header);
+  std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+  cells_aged_ = mapper_->cellsAged();
+}
+
+void SafetyMapRos::publishMap(const std_msgs::Header& header) {
   const SafetyMap& map = mapper_->safetyMap();
   auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
   toOccupancyGrid(map, mapper_->config().labelling, header, grid.get());
   map_pub_.publish(grid);
 
   auto labels = boost::make_shared<SafetyMapMsg>();
-  toSafetyMapMsg(map, robot_position, header, labels.get());
+  toSafetyMapMsg(map, robot_position_, header, labels.get());
   labels_pub_.publish(labels);
+}
+
+void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
+                                  const Eigen::Vector3f& robot_position) {
+  robot_position_ = robot_position;
+  publishMap(header);
 
   if (markers_pub_.getNumSubscribers() > 0) {
     auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
@@ -528,6 +732,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
   {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
+    cells_aged_ = 0;
   }
   ROS_INFO_STREAM(name_ << ": map reset on request");
   return true;
@@ -537,13 +742,6 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
   if (!mapper_) {
     res.success = false;
     res.message = "not running: " + config_error_;
-    return true;
-  }
-  std::lock_guard<std::mutex> lock(core_mutex_);
-  const SafetyMap& map = mapper_->safetyMap();
-  if (map.width <= 0 || map.height <= 0) {
-    res.success = false;
-    res.message = "no map yet: no frame has been integrated since the start or the last reset";
     return true;
   }
   const std::string prefix = req.path_prefix.empty() ? ros_config_.save_prefix : req.path_prefix;
@@ -556,7 +754,16 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
     return true;
   }
 
-  std::vector<std::pair<std::string, std::string>> files;  // path, contents
+  // The files' bytes are made from one state of the map under core_mutex_; they are written
+  // after it is released, so that the worker does not wait for the disk.
+  std::vector<SaveFile> files;
+  std::unique_lock<std::mutex> lock(core_mutex_);
+  const SafetyMap& map = mapper_->safetyMap();
+  if (map.width <= 0 || map.height <= 0) {
+    res.success = false;
+    res.message = "no map yet: no frame has been integrated since the start or the last reset";
+    return true;
+  }
 
   // The 3D model as an OctoMap: occupied voxels occupied, voxels with negative log-odds free.
   // OctoMap's voxels span [k l, (k + 1) l), ours are centred on k l (Eq. (1)): voxel (u, v, w)
@@ -587,7 +794,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
       res.message = "OctoMap could not serialise the 3D model";
       return true;
     }
-    files.emplace_back(prefix + ".bt", os.str());
+    files.push_back({prefix + ".bt", "", os.str()});
   }
 
   // The safety map for map_server (trinary): Level / Inclined free (254), Non-ground and
@@ -627,7 +834,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
       }
     }
     pgm << pixels;
-    files.emplace_back(prefix + ".pgm", pgm.str());
+    files.push_back({prefix + ".pgm", "", pgm.str()});
 
     const nav_msgs::MapMetaData info = mapMetaData(map, ros::Time());
     std::ostringstream yaml;
@@ -638,23 +845,25 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
          << "resolution: " << info.resolution << "\n"
          << "origin: [" << info.origin.position.x << ", " << info.origin.position.y << ", 0.0]\n"
          << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n";
-    files.emplace_back(prefix + ".yaml", yaml.str());
+    files.push_back({prefix + ".yaml", "", yaml.str()});
 
     std::vector<unsigned char> png;
     if (cv::imencode(".png", colour, png)) {
-      files.emplace_back(prefix + "_labels.png", std::string(png.begin(), png.end()));
+      files.push_back({prefix + "_labels.png", "", std::string(png.begin(), png.end())});
     }
   }
 
-  for (const auto& f : files) {
-    const std::string err = writeFileAtomically(f.first, f.second);
-    if (!err.empty()) {
-      res.success = false;
-      res.message = err;
-      return true;
-    }
-    res.files.push_back(f.first);
+  lock.unlock();
+
+  std::lock_guard<std::mutex> save_lock(save_mutex_);
+  const std::string err = writeFilesAtomically(&files);
+  if (!err.empty()) {
+    res.success = false;
+    res.message = err;
+    return true;
   }
+  for (const SaveFile& f : files)
+    res.files.push_back(f.path);
   res.success = true;
   res.message = "saved " + std::to_string(res.files.size()) + " files";
   ROS_INFO_STREAM(name_ << ": " << res.message << " with prefix " << prefix);
@@ -683,6 +892,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
   c.skip_stationary_frames = config.skip_stationary_frames;
   c.stationary_translation = config.stationary_translation;
   c.stationary_rotation_deg = config.stationary_rotation_deg;
+  c.max_cell_age = config.max_cell_age;
 
   const std::string err = c.validate();
   if (!err.empty()) {
@@ -708,6 +918,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
     config.skip_stationary_frames = o.skip_stationary_frames;
     config.stationary_translation = o.stationary_translation;
     config.stationary_rotation_deg = o.stationary_rotation_deg;
+    config.max_cell_age = o.max_cell_age;
     config.max_rate = ros_config_.max_rate;
     return;
   }
@@ -732,28 +943,37 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
                              c.labelling.drop_off_min_drop != o.labelling.drop_off_min_drop ||
                              c.skip_stationary_frames != o.skip_stationary_frames ||
                              c.stationary_translation != o.stationary_translation ||
-                             c.stationary_rotation_deg != o.stationary_rotation_deg;
+                             c.stationary_rotation_deg != o.stationary_rotation_deg ||
+                             c.max_cell_age != o.max_cell_age;
   if (!grid_changed && !stage_changed) return;
 
-  // SafetyMapper has no setter for its config: build a new one. The stages keep no state
-  // between frames, so for a stage change the 3D model (the voxel grid) is copied over; the
-  // grid's sensor model cannot be changed in place, so a grid change starts a new map.
+  // In place, under the core's lock: the worker finishes its frame first, and the next frame
+  // (or map) sees the whole new configuration. The stages keep no state between frames, so a
+  // stage change keeps the 3D model and the observation times; the grid's sensor model cannot
+  // be changed in place, so a grid change starts a new map.
   std::lock_guard<std::mutex> lock(core_mutex_);
-  auto fresh = std::make_unique<SafetyMapper>(c);
-  if (grid_changed) {
+  bool grid_reset = false;
+  const std::string refused = mapper_->reconfigure(c, &grid_reset);
+  if (!refused.empty()) {  // validated above: does not happen
+    ROS_ERROR_STREAM(name_ << ": reconfiguration refused: " << refused);
+    return;
+  }
+  mapper_config_ = c;
+  max_cell_age_ = c.max_cell_age;
+  if (grid_reset) {
     ROS_WARN_STREAM(name_ << ": voxel grid sensor model changed (incr_high " << c.grid.incr_high
                           << ", incr_low " << c.grid.incr_low << ", decr " << c.grid.decr
                           << ", occ_threshold " << c.grid.occ_threshold
                           << "): the map starts again");
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
+    cells_aged_ = 0;
   } else {
-    fresh->grid() = mapper_->grid();
-    if (mapper_->safetyMap().width > 0) fresh->computeSafetyMap(robot_position_);
+    if (mapper_->safetyMap().width > 0) mapper_->computeSafetyMap(robot_position_);
     ROS_INFO_STREAM(name_ << ": reconfigured; the 3D model is kept");
+    std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+    cells_aged_ = mapper_->cellsAged();
   }
-  mapper_ = std::move(fresh);
-  mapper_config_ = c;
 }
 
 void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
@@ -777,6 +997,12 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   stat.add("frames dropped (missing tf)", tf_failures_);
   stat.add("NaN / inf values skipped", non_finite_values_);
   stat.add("map resets", map_resets_);
+  stat.addf("max cell age [s]", "%.1f", max_cell_age_.load());
+  stat.add("cells aged to Unknown (current map)", cells_aged_);
+  const double since_input = last_arrival_.isZero() ? -1.0 : (now - last_arrival_).toSec();
+  const double since_used = (now - (last_used_.isZero() ? started_ : last_used_)).toSec();
+  stat.addf("last input [s ago]", "%.1f", since_input);
+  stat.addf("last frame used [s ago]", "%.1f", last_used_.isZero() ? -1.0 : since_used);
   stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
   stat.addf("processing time, mean [ms]", "%.1f",
             frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
@@ -796,7 +1022,19 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
 
   const bool recent_problem =
       !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
-  if (recent_problem) {
+  const double stale = ros_config_.stale_input_timeout;
+  if (frames_received_ > 0 && since_input > stale) {
+    stat.summaryf(DiagnosticStatus::WARN,
+                  "no input for %.1f s: the map is not updated (cells not re-observed for "
+                  "max_cell_age fall back to Unknown)%s%s",
+                  since_input,
+                  last_problem_.empty() ? "" : "; last problem: ", last_problem_.c_str());
+  } else if (frames_received_ > 0 && since_used > stale) {
+    stat.summaryf(DiagnosticStatus::WARN,
+                  "input arrives but no frame was used for %.1f s: the map is not updated%s%s",
+                  since_used,
+                  last_problem_.empty() ? "" : "; last problem: ", last_problem_.c_str());
+  } else if (recent_problem) {
     stat.summary(DiagnosticStatus::WARN, last_problem_);
   } else if (window_dropped_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN,

@@ -363,19 +363,13 @@ TEST(SceneLoader, MaterialsTrajectoryVariantsAndRepeat) {
 // ground and stays on safe ground, and the five dataset scenes mirror 000 Sec. VII-A
 // (350-500 frames, 10-20 % stationary).
 TEST(BenchmarkScenes, LoadAndHaveSaneGroundTruth) {
-  // <repo>/test/core/this_file.cpp -> <repo>/scenes (a relative __FILE__ means the build ran
-  // from the repository root).
-  auto parent = [](const std::string& p) {
-    const std::size_t k = p.rfind('/');
-    return k == std::string::npos ? std::string() : p.substr(0, k);
-  };
-  std::string root = parent(parent(parent(__FILE__)));
+  // SSM_SOURCE_DIR (CMakeLists.txt) is the repository; __FILE__ is not reliable: ccache's
+  // CCACHE_BASEDIR (scripts/lib/common.sh) makes it relative to the build folder.
 #ifdef SSM_SOURCE_DIR
-  // CMake's absolute source path: with ccache's CCACHE_BASEDIR (scripts/lib/common.sh) __FILE__
-  // is relative to the build folder, not to where the test runs.
-  root = SSM_SOURCE_DIR;
+  const std::string root = SSM_SOURCE_DIR;
+#else
+  const std::string root = ".";
 #endif
-  if (root.empty()) root = ".";
   const std::string dir = root + "/scenes";
   DIR* d = opendir(dir.c_str());
   ASSERT_NE(d, nullptr) << dir;

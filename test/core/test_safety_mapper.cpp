@@ -614,5 +614,253 @@ TEST(SafetyMapper, GridScrollsWithTheRobot) {
   EXPECT_FALSE(n.inside(cellOf(5.0), 0));
 }
 
+// ---------------------------------------------------------------------------------------------
+// Aging (observation_age.h): what the map can no longer vouch for.
+
+// The frames of drive() stamped 0.0, 0.1, 0.2, ... s.
+std::unique_ptr<SafetyMapper> runStamped(const std::vector<Frame>& frames,
+                                         const SafetyMapperConfig& c) {
+  auto m = std::make_unique<SafetyMapper>(c);
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    FrameResult r;
+    EXPECT_TRUE(m->integrateFrame(frames[k].points, frames[k].T, frames[k].robot, 0.1 * k, &r))
+        << toString(r.status);
+  }
+  return m;
+}
+
+// Only the points of `f` whose fixed-frame x is at least x_min.
+Frame keepBeyond(const Frame& f, double x_min) {
+  Frame g = f;
+  g.points.clear();
+  for (const Eigen::Vector3f& p : f.points)
+    if ((f.T * p).x() >= x_min) g.points.push_back(p);
+  return g;
+}
+
+// Every cell is either unchanged or went from safe to Unknown.
+void expectOnlySafeBecameUnknown(const SafetyMap& before, const SafetyMap& after) {
+  ASSERT_EQ(before.labels.size(), after.labels.size());
+  ASSERT_EQ(before.min_u, after.min_u);
+  ASSERT_EQ(before.min_v, after.min_v);
+  for (std::size_t k = 0; k < after.labels.size(); ++k) {
+    if (after.labels[k] == before.labels[k]) continue;
+    EXPECT_TRUE(isSafe(before.labels[k]) && after.labels[k] == L::kUnknown)
+        << "cell " << k << ": " << toString(before.labels[k]) << " -> "
+        << toString(after.labels[k]);
+  }
+}
+
+World floorWithBox() {
+  World w;
+  w.boxes.push_back({{2.0, -0.3, -0.1}, {2.4, 0.3, 0.5}});
+  return w;
+}
+
+TEST(SafetyMapperAging, DefaultsAndValidate) {
+  SafetyMapperConfig c;
+  EXPECT_DOUBLE_EQ(c.max_cell_age, 30.0);
+  c.max_cell_age = 0.0;  // off
+  EXPECT_EQ(c.validate(), "");
+  c.max_cell_age = -1.0;
+  EXPECT_NE(c.validate().find("max_cell_age"), std::string::npos);
+  c.max_cell_age = std::nan("");
+  EXPECT_NE(c.validate().find("max_cell_age"), std::string::npos);
+  c.max_cell_age = 1e6;
+  EXPECT_NE(c.validate().find("max_cell_age"), std::string::npos);
+}
+
+TEST(SafetyMapperAging, CellsNotReObservedFallBackToUnknownObstaclesStay) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  SafetyMapperConfig c;
+  c.max_cell_age = 5.0;
+  const auto m = runStamped(frames, c);  // last frame at t = 2.3 s
+  const SafetyMap fresh = m->safetyMap();
+  // (3.0, 0.0) lies in the box's shadow: the far floor is checked at y = 1 m.
+  ASSERT_EQ(labelAt(fresh, 1.3, 1.0), L::kLevel) << ascii(fresh);
+  ASSERT_EQ(labelAt(fresh, 3.0, 1.0), L::kLevel) << ascii(fresh);
+  ASSERT_EQ(labelAt(fresh, 2.2, 0.0), L::kNonGround) << ascii(fresh);
+  EXPECT_DOUBLE_EQ(m->latestTime(), 2.3);
+  EXPECT_EQ(m->cellsAged(), 0u);
+
+  // At t = 10 a frame (from a new pose, so integrated) that only sees beyond x = 2.5.
+  const Frame far = keepBeyond(frames.back(), 2.5);
+  FrameResult r;
+  ASSERT_TRUE(m->integrateFrame(far.points, movedPose(far.T), far.robot, 10.0, &r));
+  const SafetyMap& aged = m->safetyMap();
+  EXPECT_EQ(labelAt(aged, 1.3, 1.0), L::kUnknown) << ascii(aged);    // last seen at 2.3 s
+  EXPECT_EQ(labelAt(aged, 3.0, 1.0), L::kLevel) << ascii(aged);      // seen at 10 s
+  EXPECT_EQ(labelAt(aged, 2.2, 0.0), L::kNonGround) << ascii(aged);  // obstacles stay
+  EXPECT_GT(r.cells_aged, 0u);
+  EXPECT_EQ(r.cells_aged, m->cellsAged());
+
+  // The same map without aging is the fresh one plus the new frame: aging only turned safe
+  // cells Unknown, and exactly r.cells_aged of them.
+  SafetyMapperConfig off = c;
+  off.max_cell_age = 0.0;
+  const auto ref = runStamped(frames, off);
+  ASSERT_TRUE(ref->integrateFrame(far.points, movedPose(far.T), far.robot, 10.0, &r));
+  EXPECT_EQ(r.cells_aged, 0u);
+  expectOnlySafeBecameUnknown(ref->safetyMap(), aged);
+  std::size_t differ = 0;
+  for (std::size_t k = 0; k < aged.labels.size(); ++k)
+    differ += aged.labels[k] != ref->safetyMap().labels[k];
+  EXPECT_EQ(differ, m->cellsAged());
+
+  // Seen again: vouched for again.
+  const Frame& full = frames.back();
+  Eigen::Isometry3f T2 = movedPose(movedPose(full.T));
+  ASSERT_TRUE(m->integrateFrame(full.points, T2, full.robot, 11.0, &r));
+  EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 1.0), L::kLevel) << ascii(m->safetyMap());
+}
+
+TEST(SafetyMapperAging, AgingWithoutFramesNeverMakesAnythingSafe) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  SafetyMapperConfig c;
+  c.max_cell_age = 5.0;
+  const auto m = runStamped(frames, c);  // frames at 0.0 .. 2.3 s
+  const SafetyMap fresh = m->safetyMap();
+  std::size_t safe_before = 0;
+  for (SafetyLabel l : fresh.labels)
+    safe_before += isSafe(l);
+  ASSERT_GT(safe_before, 100u);
+
+  // At 6 s, exactly the safe cells last observed before 1 s (the camera yaws and pitches from
+  // frame to frame, so some were seen only early) fall back to Unknown.
+  const std::size_t n = m->ageSafetyMap(6.0);
+  const SafetyMap& aged = m->safetyMap();
+  expectOnlySafeBecameUnknown(fresh, aged);
+  std::size_t changed = 0;
+  for (int v = aged.min_v; v < aged.min_v + aged.height; ++v) {
+    for (int u = aged.min_u; u < aged.min_u + aged.width; ++u) {
+      const int k = aged.index(u, v);
+      if (!isSafe(fresh.labels[k])) continue;
+      const double seen = m->observationAge().lastObserved(u, v);
+      if (seen < 1.0) {
+        EXPECT_EQ(aged.labels[k], L::kUnknown) << u << " " << v << " seen at " << seen;
+        EXPECT_EQ(aged.drop_off[k], 0);
+        ++changed;
+      } else {
+        EXPECT_EQ(aged.labels[k], fresh.labels[k]) << u << " " << v << " seen at " << seen;
+      }
+    }
+  }
+  EXPECT_EQ(n, changed);
+  EXPECT_EQ(m->cellsAged(), n);
+
+  // Long after the last frame every safe cell is gone, and nothing else has changed.
+  const std::size_t rest = m->ageSafetyMap(1000.0);
+  for (SafetyLabel l : m->safetyMap().labels)
+    EXPECT_FALSE(isSafe(l));
+  EXPECT_EQ(n + rest, safe_before);
+  EXPECT_EQ(m->cellsAged(), safe_before);
+  expectOnlySafeBecameUnknown(fresh, m->safetyMap());
+  // A time older than the latest is the latest: nothing comes back.
+  EXPECT_EQ(m->ageSafetyMap(3.0), 0u);
+  EXPECT_DOUBLE_EQ(m->latestTime(), 1000.0);
+  // Recomputing the map from the grid at the latest time keeps it aged.
+  m->computeSafetyMap(frames.back().robot);
+  for (SafetyLabel l : m->safetyMap().labels)
+    EXPECT_FALSE(isSafe(l));
+}
+
+TEST(SafetyMapperAging, StationaryFramesStillObserve) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  SafetyMapperConfig c;
+  c.max_cell_age = 5.0;
+  const auto m = runStamped(frames, c);
+  const SafetyMap fresh = m->safetyMap();
+  const Frame& last = frames.back();
+  FrameResult r;
+  // The robot stands still; the camera keeps seeing the floor at 1.3 m.
+  for (double t = 3.0; t <= 20.0; t += 1.0) {
+    EXPECT_FALSE(m->integrateFrame(last.points, last.T, last.robot, t, &r));
+    EXPECT_EQ(r.status, FrameStatus::kStationary);
+  }
+  EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 1.0), L::kLevel) << ascii(m->safetyMap());
+  EXPECT_EQ(labelAt(m->safetyMap(), 2.2, 0.0), L::kNonGround);
+  expectOnlySafeBecameUnknown(fresh, m->safetyMap());
+  // A stationary frame that sees nothing beyond 2.5 m: the near floor ages out.
+  const Frame far = keepBeyond(last, 2.5);
+  EXPECT_FALSE(m->integrateFrame(far.points, last.T, last.robot, 40.0, &r));
+  EXPECT_EQ(r.status, FrameStatus::kStationary);
+  EXPECT_GT(r.cells_aged, 0u);
+  EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 1.0), L::kUnknown) << ascii(m->safetyMap());
+  EXPECT_EQ(labelAt(m->safetyMap(), 3.0, 1.0), L::kLevel) << ascii(m->safetyMap());
+}
+
+TEST(SafetyMapperAging, UnstampedFramesAndZeroAgeNeverAge) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  const auto unstamped = run(frames);  // default max_cell_age, no stamps
+  const SafetyMap fresh = unstamped->safetyMap();
+  EXPECT_TRUE(std::isnan(unstamped->latestTime()));
+  EXPECT_EQ(unstamped->cellsAged(), 0u);
+  SafetyMapperConfig off;
+  off.max_cell_age = 0.0;
+  const auto m = runStamped(frames, off);
+  EXPECT_EQ(m->ageSafetyMap(1e6), 0u);
+  EXPECT_EQ(m->safetyMap().labels, fresh.labels);
+  // A NaN stamp is no stamp.
+  SafetyMapper n;
+  FrameResult r;
+  ASSERT_TRUE(n.integrateFrame(frames[0].points, frames[0].T, frames[0].robot, std::nan(""), &r));
+  EXPECT_TRUE(std::isnan(n.latestTime()));
+}
+
+TEST(SafetyMapperAging, ResetForgetsObservations) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  SafetyMapperConfig c;
+  c.max_cell_age = 5.0;
+  const auto m = runStamped(frames, c);
+  m->reset();
+  EXPECT_TRUE(std::isnan(m->latestTime()));
+  EXPECT_EQ(m->observationAge().lastObserved(cellOf(1.3), 0), ObservationAge::kNever);
+  // A bag played again: stamps from 0 on, the map builds up as the first time.
+  const auto again = runStamped(frames, c);
+  for (std::size_t k = 0; k < frames.size(); ++k)
+    m->integrateFrame(frames[k].points, frames[k].T, frames[k].robot, 0.1 * k);
+  EXPECT_EQ(m->safetyMap().labels, again->safetyMap().labels);
+}
+
+TEST(SafetyMapperReconfigure, StageChangeKeepsTheModelGridChangeStartsAgain) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  SafetyMapperConfig c;
+  c.max_cell_age = 5.0;
+  const auto m = runStamped(frames, c);
+  const std::uint32_t integrated = m->grid().frameCount();
+  ASSERT_GT(integrated, 0u);
+
+  // An invalid configuration changes nothing.
+  SafetyMapperConfig bad = c;
+  bad.labelling.level_slope_deg = 20.0;  // > max_slope_deg
+  bool grid_reset = true;
+  EXPECT_NE(m->reconfigure(bad, &grid_reset), "");
+  EXPECT_FALSE(grid_reset);
+  EXPECT_EQ(m->config().labelling.level_slope_deg, c.labelling.level_slope_deg);
+
+  // A labelling change: same model, new labels on the next map.
+  SafetyMapperConfig steep = c;
+  steep.labelling.max_slope_deg = 20.0;
+  steep.labelling.level_slope_deg = 15.0;
+  EXPECT_EQ(m->reconfigure(steep, &grid_reset), "");
+  EXPECT_FALSE(grid_reset);
+  EXPECT_EQ(m->grid().frameCount(), integrated);
+  EXPECT_DOUBLE_EQ(m->latestTime(), 2.3);
+  EXPECT_DOUBLE_EQ(m->config().labelling.max_slope_deg, 20.0);
+  const auto ref = runStamped(frames, steep);
+  m->computeSafetyMap(frames.back().robot);
+  EXPECT_EQ(m->safetyMap().labels, ref->safetyMap().labels);
+
+  // A sensor-model change starts a new grid.
+  SafetyMapperConfig decr = steep;
+  decr.grid.decr = 3;
+  EXPECT_EQ(m->reconfigure(decr, &grid_reset), "");
+  EXPECT_TRUE(grid_reset);
+  EXPECT_EQ(m->grid().frameCount(), 0u);
+  EXPECT_TRUE(m->safetyMap().labels.empty());
+  EXPECT_TRUE(std::isnan(m->latestTime()));
+  EXPECT_EQ(m->grid().config().decr, 3);
+}
+
 }  // namespace
 }  // namespace stereo_safety_map

@@ -7,6 +7,7 @@
 
 #include "stereo_safety_map/core/ground_segmentation.h"
 #include "stereo_safety_map/core/height_map.h"
+#include "stereo_safety_map/core/observation_age.h"
 #include "stereo_safety_map/core/plane_fit.h"
 #include "stereo_safety_map/core/safety_labelling.h"
 #include "stereo_safety_map/core/safety_map.h"
@@ -49,6 +50,11 @@ struct SafetyMapperConfig {
   /// Must leave R_max around the robot inside the window: [0, min(size_x, size_y) / 2 - R_max].
   double grid_look_ahead = 1.0;
 
+  /// Cells not re-observed for longer than this [s] can no longer be vouched for: Level /
+  /// Inclined cells fall back to Unknown, nothing else changes (policy in observation_age.h;
+  /// ours, not in the paper). Only frames passed with a stamp age the map. 0 = off.
+  double max_cell_age = 30.0;
+
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
 };
@@ -78,6 +84,7 @@ struct FrameResult {
   FrameStatus status = FrameStatus::kIntegrated;
   IntegrationStats integration;     ///< zeros when not integrated
   std::size_t voxels_scrolled = 0;  ///< voxels cleared by recentring the grid
+  std::size_t cells_aged = 0;       ///< safe cells turned Unknown by max_cell_age (stamped frames)
   StageTimings timings;             ///< zeros when not integrated
 };
 
@@ -97,6 +104,14 @@ class SafetyMapper {
   bool integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
                       const Eigen::Isometry3f& T_fixed_sensor,
                       const Eigen::Vector3f& robot_base_position, FrameResult* out = nullptr);
+  /// The same for a frame taken at time `stamp` [s]: the columns its points fall into are
+  /// observed at `stamp` (also when the frame is skipped as stationary: the camera still sees
+  /// them), and the map is aged at the latest stamp seen (max_cell_age, observation_age.h).
+  /// A stationary frame may so change the map (FrameResult::cells_aged).
+  bool integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
+                      const Eigen::Isometry3f& T_fixed_sensor,
+                      const Eigen::Vector3f& robot_base_position, double stamp,
+                      FrameResult* out = nullptr);
 
   /// Whether integrateFrame() would skip a frame from `T_fixed_sensor` as stationary (000 Sec.
   /// IV): skipping is on, a frame was integrated before, and the camera has moved less than both
@@ -108,6 +123,22 @@ class SafetyMapper {
   /// `robot_base_position` (no grid update). A non-finite position gives a map with every cell
   /// Unknown and no segments.
   const SafetyMap& computeSafetyMap(const Eigen::Vector3f& robot_base_position);
+
+  /// Ages the current map at time `now` [s] without recomputing it (max_cell_age; e.g. while no
+  /// frame arrives): returns the number of safe cells that fell back to Unknown. `now` older than
+  /// the latest stamp seen is replaced by it. 0 when aging is off or no stamp was ever given.
+  std::size_t ageSafetyMap(double now);
+  /// Safe cells of the current map turned Unknown by aging since it was computed.
+  std::size_t cellsAged() const { return cells_aged_; }
+  /// Latest frame stamp / aging time seen; NaN when none since the start or the last reset.
+  double latestTime() const { return latest_time_; }
+  const ObservationAge& observationAge() const { return observation_age_; }
+
+  /// Applies a new configuration in place and returns "" (or config.validate()'s message, then
+  /// nothing changes). A change of the grid's configuration (sensor model, size) starts a new
+  /// grid, as reset() does (*grid_reset true); otherwise the 3D model, observation times and
+  /// last pose are kept and the next computeSafetyMap() uses the new stage parameters.
+  std::string reconfigure(const SafetyMapperConfig& config, bool* grid_reset = nullptr);
 
   /// The last computed map (empty before the first).
   const SafetyMap& safetyMap() const { return map_; }
@@ -141,6 +172,16 @@ class SafetyMapper {
   std::vector<GroundPlane> planes_;
   SafetyMap map_;
   StageTimings timings_;
+
+  void observe(const std::vector<Eigen::Vector3f>& points_sensor,
+               const Eigen::Isometry3f& T_fixed_sensor, double stamp);
+  bool integrate(const std::vector<Eigen::Vector3f>& points_sensor,
+                 const Eigen::Isometry3f& T_fixed_sensor,
+                 const Eigen::Vector3f& robot_base_position, double stamp, FrameResult* out);
+
+  ObservationAge observation_age_;
+  double latest_time_;  // NaN when unknown
+  std::size_t cells_aged_ = 0;
 
   bool has_last_pose_ = false;
   bool grid_placed_ = false;

@@ -13,6 +13,7 @@
 
 #include <nav_msgs/OccupancyGrid.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
 #include <stereo_msgs/DisparityImage.h>
@@ -66,10 +67,27 @@ std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, doubl
 
 // ---------------------------------------------------------------------------------------------
 // Inputs
+//
+// The check*() functions read a message without converting it (no allocation): cheap enough for
+// a subscriber callback, so that a malformed message is refused before it reaches a tf filter, a
+// sync or a queue, where it could push a valid message out.
 
-/// Rectified stereo geometry from the left / right CameraInfo pair through
-/// image_geometry::StereoCameraModel (binning and ROI applied: the model describes the images as
-/// published). Refuses zero or non-finite focal length, zero baseline, empty images.
+/// One CameraInfo on its own: non-empty size, finite P, positive focal length. `which` names it
+/// in the message ("left", "right").
+std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* which);
+
+/// A grey view of a rectified 8-bit image (mono8 / 8UC1: onto the message's data, no copy; bgr8,
+/// rgb8, bgra8, rgba8: converted into `buffer`), after checking encoding, size, step and data
+/// size. `which` ("left", "right") names the image in the message. The view is valid while the
+/// message (or `buffer`) lives.
+std::string rectifiedImageToGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
+                                 cv::Mat* grey);
+
+/// Rectified stereo geometry from the left / right CameraInfo pair through two
+/// image_geometry::PinholeCameraModel (binning and ROI applied: the model describes the images as
+/// published; baseline as image_geometry::StereoCameraModel computes it). Refuses zero or
+/// non-finite focal length, zero baseline, empty images, sizes that differ, and a pair whose fx,
+/// fy or cy differ (image_geometry::StereoCameraModel would assert, aborting the process).
 std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                       const sensor_msgs::CameraInfo& right,
                                       StereoCameraModel* model);
@@ -88,6 +106,11 @@ struct DisparityImageStats {
   std::size_t out_of_range = 0;  ///< outside [min_disparity, max_disparity] (invalid marker)
 };
 
+/// Everything disparityImageToMat() checks, plus positive finite f and T, without the copy;
+/// `stats` counts the pixels that would be invalid.
+std::string checkDisparityImage(const stereo_msgs::DisparityImage& msg,
+                                DisparityImageStats* stats = nullptr);
+
 /// Copies the disparity image into `out` (CV_32FC1, reused), checking encoding (32FC1), byte
 /// order, step and data size. Pixels that are not finite or lie outside the message's
 /// [min_disparity, max_disparity] (when max > min; stereo_image_proc marks invalid pixels with
@@ -100,9 +123,12 @@ struct CloudStats {
   std::size_t non_finite = 0;  ///< NaN / inf points, dropped
 };
 
-/// x, y, z of every finite point (sensor frame), through sensor_msgs::PointCloud2ConstIterator,
-/// after checking the fields (x, y, z present, FLOAT32, count 1, inside point_step), byte order,
-/// point_step / row_step and data size. `points` is reused (cleared, not shrunk).
+/// Everything pointCloud2ToPoints() checks, without the copy; `stats` counts the points.
+std::string checkPointCloud2(const sensor_msgs::PointCloud2& msg, CloudStats* stats = nullptr);
+
+/// x, y, z of every finite point (sensor frame), after checking the fields (x, y, z present
+/// once each, FLOAT32, count 1, inside point_step), byte order, point_step / row_step and data
+/// size. `points` is reused (cleared, not shrunk).
 std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
                                 std::vector<Eigen::Vector3f>* points, CloudStats* stats = nullptr);
 

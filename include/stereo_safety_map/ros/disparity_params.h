@@ -26,6 +26,11 @@ struct DisparityRosConfig {
   int queue_size = 5;             ///< subscriber and synchronizer queue [messages], [1, 1000]
   bool approximate_sync = false;  ///< approximate instead of exact image / CameraInfo sync
   double cloud_max_depth = 10.0;  ///< points2: farther points are NaN [m], (0, 1000]
+  /// Degraded-camera checks (core/stereo_input_check.h): images with a grey-level std dev below
+  /// this are refused [grey levels], [0, 128], 0 = off; images repeating the previous pair
+  /// byte for byte are refused unless reject_frozen_images is false.
+  double min_image_contrast = 2.0;
+  bool reject_frozen_images = true;
 
   std::string validate() const;
 };

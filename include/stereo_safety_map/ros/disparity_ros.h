@@ -21,6 +21,7 @@
 
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/stereo_input_check.h"
 #include "stereo_safety_map/ros/disparity_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -85,9 +86,6 @@ class DisparityRos {
                const sensor_msgs::CameraInfoConstPtr& right_info);
   void workerLoop();
   void processFrame(const Frame& frame);
-  /// Grey view (or converted copy in `buffer`) of a rectified image; "" or why it is refused.
-  std::string toGrey(const sensor_msgs::Image& msg, const char* which, cv::Mat* buffer,
-                     cv::Mat* grey) const;
   void publishDisparity(const std_msgs::Header& header);
   void publishCloud(const std_msgs::Header& header);
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
@@ -120,7 +118,8 @@ class DisparityRos {
   ros::Publisher cloud_pub_;
   image_transport::Publisher debug_pub_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;
+  ros::Time last_diagnostics_time_;           ///< timer callback only
   boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
 
@@ -137,6 +136,7 @@ class DisparityRos {
 
   // Worker-only: the core and buffers reused from frame to frame.
   DisparityPipeline pipeline_;
+  StereoInputCheck input_check_;  ///< black / covered / frozen cameras
   StereoCameraModel camera_;
   cv::Mat left_buffer_, right_buffer_;
   cv::Mat disparity_;

@@ -43,6 +43,14 @@ struct SafetyMapRosConfig {
   int disparity_step = 1;         ///< use every n-th pixel in rows and columns
   double time_jump_reset = 1.0;   ///< stamps going back by more than this reset the map [s]
   std::string save_prefix = "/tmp/stereo_safety_map/map";  ///< ~save without a path_prefix
+  /// Drop a frame whose data are byte for byte the previous frame's (a frozen camera or driver
+  /// re-sending its last buffer); off for noiseless simulators that repeat frames.
+  bool reject_frozen_input = true;
+  /// A frame whose transform arrived more than this after the frame [s] is dropped: its pose
+  /// would be interpolated across a gap in tf (odometry stalled), not measured.
+  double max_tf_wait = 1.0;
+  /// Diagnostics WARN when no input arrived, or none was used, for this long [s].
+  double stale_input_timeout = 2.0;
 
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;

@@ -2,17 +2,34 @@
 // (core/safety_mapper.h, paper 000 Sec. IV-VI) and its results into messages. Wrapped by
 // src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet).
 //
-// Threading model. Message callbacks run on the nodelet manager's thread pool; they only put the
-// frame (the message pointers) into a one-slot queue, so they never wait for the pipeline. One
+// Threading model. Message callbacks run on the nodelet manager's thread pool. Each subscriber
+// callback first checks its message on its own (structure, values: conversions.h check*(), no
+// copy); a malformed message is counted and dropped there, so that it never reaches the tf2
+// MessageFilter, the sync or the queue, where it could push a valid message out. The sync
+// callback checks the frame as a whole (camera models, sizes, stamp order) and puts the frame
+// (the message pointers) into a one-slot queue, so callbacks never wait for the pipeline. One
 // worker thread owned by this class takes frames from the slot and runs conversion, the core and
 // publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
 // replaced and counted as dropped: the newest frame wins, processing latency stays one frame, and
 // max_rate throttles by letting the slot be overwritten. A worker (rather than processing in the
 // callback) keeps the tf2 MessageFilter and the sync running on time while a frame is processed,
-// and lets drops be counted in one place. The core (SafetyMapper) and everything derived from it
-// are guarded by core_mutex_, which the worker holds for a frame and ~reset, ~save and
-// dynamic_reconfigure take as well. The slot has its own mutex, held only for a swap. Publishers
-// are thread-safe in roscpp.
+// and lets drops be counted in one place.
+//
+// Locks, and what each guards (always taken in this order, never the other way round):
+//   reconfigure_mutex_  dynamic_reconfigure's server (held by it while reconfigureCb runs);
+//                       mapper_config_ and ros_config_.max_rate are only touched there.
+//   core_mutex_         the core (mapper_) and robot_position_: the worker for a frame, the
+//                       aging timer, ~reset, ~save (while it serialises the map) and
+//                       reconfigureCb. Maps are published under it, so a message is never built
+//                       from a map being changed.
+//   save_mutex_         writing ~save's files (after core_mutex_ is released).
+//   slot_mutex_         the slot, stop_ and newest_stamp_ (the stamp order), held for a swap.
+//   stats_mutex_        counters and diagnostics; arrival_mutex_: tf wait measurement.
+// Worker-only state (points_, disparity_, camera_, previous_input_...) is touched by the worker
+// thread alone. Constant after the constructor: ros_config_ (but max_rate), config_error_,
+// min_depth_, max_depth_. Publishers are thread-safe in roscpp. The destructor stops the
+// timers, services, reconfigure server and subscribers before the worker, so that no callback
+// runs into a half-destroyed object.
 #pragma once
 
 #include "stereo_safety_map/core/landmark_filter.h"
@@ -24,7 +41,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
-#include <message_filters/subscriber.h>
+#include <message_filters/pass_through.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
@@ -88,9 +105,15 @@ class SafetyMapRos {
     sensor_msgs::CameraInfoConstPtr right_info;
     sensor_msgs::PointCloud2ConstPtr cloud;
     double tf_wait_ms = 0.0;  ///< from arrival to the transform being available
+    bool reset_map = false;   ///< time went back (the clock too): a restart, reset first
   };
 
   void setUpInputs();
+  // Subscriber callbacks: check one message, hand it on or drop it.
+  void disparityIn(const stereo_msgs::DisparityImageConstPtr& msg);
+  void leftInfoIn(const sensor_msgs::CameraInfoConstPtr& msg);
+  void rightInfoIn(const sensor_msgs::CameraInfoConstPtr& msg);
+  void cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg);
   void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
                    const sensor_msgs::CameraInfoConstPtr& left,
                    const sensor_msgs::CameraInfoConstPtr& right);
@@ -99,6 +122,8 @@ class SafetyMapRos {
   double tfWaitMs(const std_msgs::Header& header);
   void tfFailure(const std_msgs::Header& header,
                  tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  /// Puts a frame into the slot unless its stamp is not newer than the newest frame's (then it
+  /// is dropped, or marks a restart when the clock went back as well: time_jump_reset).
   void enqueue(std::unique_ptr<Frame> frame);
 
   void workerLoop();
@@ -106,6 +131,13 @@ class SafetyMapRos {
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
   void reject(const std::string& reason, const std::string& detail);
   void publishOutputs(const std_msgs::Header& header, const Eigen::Vector3f& robot_position);
+  /// Map and labels only (core_mutex_ held), e.g. after aging.
+  void publishMap(const std_msgs::Header& header);
+  /// True when the frame's data are byte for byte those of the previous frame (another stamp):
+  /// a frozen camera or driver. Worker only.
+  bool frozen(const Frame& frame);
+  /// Ages the map by the clock while frames do not (max_cell_age), and republishes it.
+  void ageTimerCb();
 
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
   bool saveSrv(SaveMap::Request& req, SaveMap::Response& res);
@@ -122,10 +154,15 @@ class SafetyMapRos {
   // Inputs.
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
   std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<message_filters::Subscriber<stereo_msgs::DisparityImage>> disparity_sub_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> left_info_sub_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> right_info_sub_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::PointCloud2>> cloud_sub_;
+  ros::Subscriber disparity_sub_;
+  ros::Subscriber left_info_sub_;
+  ros::Subscriber right_info_sub_;
+  ros::Subscriber cloud_sub_;
+  // Checked messages enter the filters through these.
+  message_filters::PassThrough<stereo_msgs::DisparityImage> disparity_in_;
+  message_filters::PassThrough<sensor_msgs::CameraInfo> left_info_in_;
+  message_filters::PassThrough<sensor_msgs::CameraInfo> right_info_in_;
+  message_filters::PassThrough<sensor_msgs::PointCloud2> cloud_in_;
   std::unique_ptr<DisparityFilter> disparity_filter_;
   std::unique_ptr<CloudFilter> cloud_filter_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
@@ -141,17 +178,22 @@ class SafetyMapRos {
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  ros::WallTimer diagnostics_timer_;
+  ros::Time last_diagnostics_time_;  ///< timer callback only
+  ros::WallTimer age_timer_;
+  boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
-  boost::recursive_mutex reconfigure_mutex_;
+  std::mutex save_mutex_;
 
   // One-slot queue between the callbacks and the worker.
   std::mutex slot_mutex_;
   std::condition_variable slot_cv_;
   std::unique_ptr<Frame> slot_;
+  ros::Time newest_stamp_;  ///< of the last frame put into the slot
   bool stop_ = false;
   std::thread worker_;
   std::atomic<double> max_rate_{0.0};
+  std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)
 
   // Arrival times, to measure how long frames waited for tf (guarded by arrival_mutex_).
   std::mutex arrival_mutex_;
@@ -162,6 +204,9 @@ class SafetyMapRos {
   cv::Mat disparity_;
   StereoCameraModel camera_;
   ros::Time last_stamp_;
+  std::vector<std::uint8_t> previous_input_;  ///< data of the previous frame (frozen input)
+  ros::Time previous_input_stamp_;
+  std::uint32_t previous_input_width_ = 0, previous_input_height_ = 0;
   double min_depth_ = 0.0;  ///< reprojection range: the grid's min_range / max_range
   double max_depth_ = 0.0;
 
@@ -183,6 +228,10 @@ class SafetyMapRos {
   std::uint64_t frames_rejected_ = 0;
   std::uint64_t tf_failures_ = 0;
   std::uint64_t map_resets_ = 0;
+  std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
+  ros::WallTime last_arrival_;  ///< last disparity / cloud message received
+  ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
+  ros::WallTime started_;
   std::map<std::string, std::uint64_t> rejections_;   ///< by reason
   std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
   std::uint64_t non_finite_values_ = 0;               ///< NaN / inf pixels or points skipped
