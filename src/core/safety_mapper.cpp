@@ -57,12 +57,13 @@ std::string SafetyMapperConfig::validate() const {
       stationary_rotation_deg > 180.0) {
     return "stationary_rotation_deg must be in [0, 180] deg";
   }
+  // A window smaller than 2 R_max allows no look-ahead (but stays valid centred on the robot).
   const double max_look_ahead =
-      0.5 * std::min(grid.size_x, grid.size_y) - segmentation.planning_radius;
+      std::max(0.0, 0.5 * std::min(grid.size_x, grid.size_y) - segmentation.planning_radius);
   if (!std::isfinite(grid_look_ahead) || grid_look_ahead < 0.0 ||
       grid_look_ahead > max_look_ahead + 1e-9) {
     return "grid_look_ahead must be in [0, min(size_x, size_y) / 2 - planning_radius] = [0, " +
-           std::to_string(std::max(0.0, max_look_ahead)) + "] m";
+           std::to_string(max_look_ahead) + "] m";
   }
   if (!std::isfinite(max_cell_age) || max_cell_age < 0.0 || max_cell_age > 86400.0) {
     return "max_cell_age must be in [0, 86400] s (0 = off)";

@@ -603,6 +603,12 @@ TEST(SafetyMapper, GridScrollsWithTheRobot) {
   SafetyMapperConfig too_far;
   too_far.grid_look_ahead = 1.5;  // 5 m - 1.5 m < R_max
   EXPECT_NE(too_far.validate().find("grid_look_ahead"), std::string::npos);
+  // A window narrower than 2 R_max allows no look-ahead but is valid centred on the robot.
+  SafetyMapperConfig small;
+  small.grid.size_x = small.grid.size_y = 5.0;
+  EXPECT_NE(small.validate().find("grid_look_ahead"), std::string::npos);
+  small.grid_look_ahead = 0.0;
+  EXPECT_EQ(small.validate(), "");
 
   SafetyMapperConfig fixed = centred;
   fixed.scroll_with_robot = false;
