@@ -75,7 +75,8 @@ std::string Material::validate() const {
   if (!(detail >= 0.0 && detail <= 1.0)) return "material.detail must be in [0, 1]";
   if (!(grain <= 1.0) || (grain < 0.0 && grain != -1.0))
     return "material.grain must be in [0, 1] (or absent for the default)";
-  if (!(std::isfinite(grain_size) && grain_size > 0.0)) return "material.grain_size must be > 0 [m]";
+  if (!(std::isfinite(grain_size) && grain_size > 0.0))
+    return "material.grain_size must be > 0 [m]";
   if (!std::isfinite(angle_deg)) return "material.angle_deg must be finite";
   return "";
 }

@@ -3,8 +3,9 @@
 //
 // A pinhole camera (f = 600 px) 1.1 m above a floor z = 0, pitched down 15 deg, as on the
 // wheelchair. Two scenes: "typical" is a floor with several obstacles (a pole, a box, a box
-// turned 45 deg, a person-sized cylinder, a 10 cm curb across the view; ~29 % of the valid pixels are
-// obstacle points); "dense" adds a ridge with a sideways slope and a wall across the view at 9 m
+// turned 45 deg, a person-sized cylinder, a 10 cm curb across the view; ~29 % of the valid pixels
+// are obstacle points); "dense" adds a ridge with a sideways slope and a wall across the view at 9
+// m
 // (~50 % obstacle points). Points farther than 10 m are missing (NaN), as with a stereo range
 // limit; "+ noise" adds spatially smooth range noise (sigma = 0.2 % of the range, correlated
 // over ~8 px). Prints min / median / max ms over the repetitions, as wall time and as the

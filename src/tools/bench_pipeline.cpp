@@ -1585,8 +1585,8 @@ int main(int argc, char** argv) {
       ssm::SafetyMapperConfig c = pcfg.mapper;
       c.grid.size_x = c.grid.size_y = L;
       // The look-ahead must leave R_max behind the robot inside the window (safety_mapper.h).
-      c.grid_look_ahead = std::min(
-          c.grid_look_ahead, std::max(0.0, 0.5 * L - c.segmentation.planning_radius));
+      c.grid_look_ahead =
+          std::min(c.grid_look_ahead, std::max(0.0, 0.5 * L - c.segmentation.planning_radius));
       mapperSweep("map_size", L, fmt(L, 0) + " x " + fmt(L, 0) + " x 3 m", c);
     }
     progress("scaling: voxel size");

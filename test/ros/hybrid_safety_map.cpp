@@ -3,8 +3,8 @@
 // [-3, 3) m) holds level floor, a wall at x = 4 m, a table top over x in [2.0, 2.7), y in
 // [-0.4, 0.3] (Non-ground, as 000 labels overhangs below robot height), an inclined patch and an
 // unknown patch; a laser 0.3 m above the floor at the origin sees the wall and the four table legs
-// and passes under the top (the cells behind the legs, in their shadow, stay unknown to it). Also: the laser-only fallback, the safety-map nodelet's landmark
-// filter hook, and bad input.
+// and passes under the top (the cells behind the legs, in their shadow, stay unknown to it). Also:
+// the laser-only fallback, the safety-map nodelet's landmark filter hook, and bad input.
 #include "test_util.h"
 
 #include "stereo_safety_map/ros/msgs.h"
@@ -231,10 +231,10 @@ TEST_F(HybridTest, OccupancyGridFollowsTheValueTable) {
   ASSERT_TRUE(waitFor([] { return grid_->get() != nullptr; }, 5.0));
   const nav_msgs::OccupancyGrid& g = *grid_->get();
   EXPECT_EQ(test_util::costAt(g, kWallX, -1.5), 100);  // Obstacle
-  EXPECT_EQ(test_util::costAt(g, 2.4, 0.0), 99);      // Hazard
-  EXPECT_EQ(test_util::costAt(g, 1.15, 1.15), 50);    // Caution
-  EXPECT_EQ(test_util::costAt(g, 1.0, -1.0), 0);      // Safe
-  EXPECT_EQ(test_util::costAt(g, 1.15, -1.85), -1);   // Unknown
+  EXPECT_EQ(test_util::costAt(g, 2.4, 0.0), 99);       // Hazard
+  EXPECT_EQ(test_util::costAt(g, 1.15, 1.15), 50);     // Caution
+  EXPECT_EQ(test_util::costAt(g, 1.0, -1.0), 0);       // Safe
+  EXPECT_EQ(test_util::costAt(g, 1.15, -1.85), -1);    // Unknown
 }
 
 TEST_F(HybridTest, LaserAloneCallsTheSpaceUnderTheTableFree) {

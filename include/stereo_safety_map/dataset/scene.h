@@ -52,7 +52,7 @@ struct Material {
   double grain = -1.0;
   double grain_size = 0.012;  ///< finest grain wavelength [m], > 0; octaves at 1, 2 and 4 x
   double angle_deg = 0.0;     ///< rotation of the texture axes on the surface [deg]
-  std::uint32_t seed = 0;    ///< decorrelates materials that share parameters
+  std::uint32_t seed = 0;     ///< decorrelates materials that share parameters
 
   std::string validate() const;
   /// The grain amplitude in effect (resolves the negative default).
