@@ -29,6 +29,8 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <sstream>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -499,7 +501,20 @@ TEST_F(HostileTest, MapsEqualThoseOfTheValidStreamAlone) {
   for (int k = 0; k < n; ++k) {
     ros::Time t;
     if (!validFrame(robotX(k), &t)) {
-      ADD_FAILURE() << "a nodelet published no map for frame " << k << " at " << t;
+      // Which nodelet, and what its diagnostics counted (why the frame went missing).
+      std::ostringstream why;
+      for (const auto& m : maps_) {
+        if (m.second->at(t)) continue;
+        why << "\n  " << m.first << ":";
+        for (const char* key :
+             {"frames received", "frames dropped (missing tf)",
+              "frames dropped (processing slower than input)", "problem: out of order",
+              "problem: bad camera model", "problem: stale tf", "last problem"}) {
+          why << " [" << key << ": " << diagnostics_->lastValue(m.first + "/safety_map", key)
+              << "]";
+        }
+      }
+      ADD_FAILURE() << "no map for valid frame " << k << " at " << t << " from" << why.str();
       break;
     }
     // The maps of this frame, hostile against clean, label for label.
