@@ -57,6 +57,8 @@ class ParamReader {
     }
   }
 
+  /// The first type error (empty while there is none).
+  const std::string& error() const { return error_; }
   /// The first type error, or `range_error` (a validate() message) prefixed with the namespace;
   /// empty when both are empty.
   std::string result(const std::string& range_error) const {
