@@ -212,7 +212,10 @@ void pointsToCloud(const std::vector<Eigen::Vector3f>& points, const std_msgs::H
   modifier.resize(points.size());
   out->height = 1;
   out->width = static_cast<std::uint32_t>(points.size());
+  out->row_step = out->width * out->point_step;
   out->is_dense = true;
+  // An iterator over an empty cloud reads data.front() of an empty vector (UBSan found it).
+  if (points.empty()) return;
   sensor_msgs::PointCloud2Iterator<float> x(*out, "x"), y(*out, "y"), z(*out, "z");
   for (const Eigen::Vector3f& p : points) {
     *x = p.x();

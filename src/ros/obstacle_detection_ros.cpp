@@ -503,6 +503,10 @@ void ObstacleDetectionRos::publishObstacles(const std_msgs::Header& header,
   cloud->width = static_cast<std::uint32_t>(n);
   cloud->row_step = cloud->width * cloud->point_step;
   cloud->is_dense = true;
+  if (n == 0) {  // an iterator over an empty cloud reads data.front() of an empty vector (UBSan)
+    obstacles_pub_.publish(cloud);
+    return;
+  }
   sensor_msgs::PointCloud2Iterator<float> x(*cloud, "x");
   sensor_msgs::PointCloud2Iterator<std::uint32_t> label(*cloud, "label");
   for (int r = 0; r < result_.mask.rows; ++r) {
