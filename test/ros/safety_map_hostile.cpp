@@ -509,7 +509,8 @@ TEST_F(HostileTest, MapsEqualThoseOfTheValidStreamAlone) {
         for (const char* key :
              {"frames received", "frames dropped (missing tf)",
               "frames dropped (processing slower than input)", "problem: out of order",
-              "problem: bad camera model", "problem: stale tf", "last problem"}) {
+              "problem: bad camera model", "problem: stale tf", "frames skipped (stationary)",
+              "problem: frozen input", "frames processed", "last problem"}) {
           why << " [" << key << ": " << diagnostics_->lastValue(m.first + "/safety_map", key)
               << "]";
         }
