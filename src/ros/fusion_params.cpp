@@ -1,5 +1,7 @@
 #include "stereo_safety_map/ros/fusion_params.h"
 
+#include "stereo_safety_map/ros/param_reader.h"
+
 #include <xmlrpcpp/XmlRpcValue.h>
 
 #include <cmath>
@@ -10,76 +12,8 @@ namespace stereo_safety_map {
 
 namespace {
 
-// Reads typed parameters, remembering the first error. Absent parameters keep their value.
-// (The same reader as params.cpp's; each parameter file keeps its own.)
-class Reader {
- public:
-  explicit Reader(const ros::NodeHandle& pnh) : pnh_(pnh) {}
-
-  void read(const std::string& name, double* value) {
-    XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
-      *value = static_cast<double>(v);
-    } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
-      *value = static_cast<int>(v);
-    } else if (v.getType() == XmlRpc::XmlRpcValue::TypeString &&
-               (static_cast<std::string>(v) == "inf" || static_cast<std::string>(v) == ".inf")) {
-      *value = std::numeric_limits<double>::infinity();
-    } else {
-      fail(name, v, "a number");
-    }
-  }
-  void read(const std::string& name, int* value) {
-    XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
-      *value = static_cast<int>(v);
-    } else {
-      fail(name, v, "an integer");
-    }
-  }
-  void read(const std::string& name, bool* value) {
-    XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeBoolean) {
-      *value = static_cast<bool>(v);
-    } else {
-      fail(name, v, "true or false");
-    }
-  }
-  void read(const std::string& name, std::string* value) {
-    XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeString) {
-      *value = static_cast<std::string>(v);
-    } else {
-      fail(name, v, "a string");
-    }
-  }
-
-  /// The first type error, or the range check's message prefixed with the namespace.
-  std::string result(const std::string& range_error, const std::string& prefix = "") const {
-    if (!error_.empty()) return error_;
-    if (range_error.empty()) return "";
-    return "invalid parameter in " + pnh_.getNamespace() + ": " + prefix + range_error;
-  }
-
- private:
-  bool fetch(const std::string& name, XmlRpc::XmlRpcValue* v) {
-    if (!error_.empty() || !pnh_.hasParam(name)) return false;
-    return pnh_.getParam(name, *v);
-  }
-  void fail(const std::string& name, XmlRpc::XmlRpcValue& v, const char* expected) {
-    std::ostringstream os;
-    os << "invalid parameter " << pnh_.resolveName(name) << ": must be " << expected << ", got ";
-    v.write(os);
-    error_ = os.str();
-  }
-
-  const ros::NodeHandle& pnh_;
-  std::string error_;
-};
+// Reads typed parameters, remembering the first error (param_reader.h).
+using Reader = ParamReader;
 
 std::string rangeError(const char* name, double value, const char* range) {
   std::ostringstream os;

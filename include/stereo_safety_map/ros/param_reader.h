@@ -9,6 +9,7 @@
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -25,6 +26,10 @@ class ParamReader {
       *value = static_cast<double>(v);
     } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
       *value = static_cast<int>(v);
+    } else if (v.getType() == XmlRpc::XmlRpcValue::TypeString &&
+               (static_cast<std::string>(v) == "inf" || static_cast<std::string>(v) == ".inf")) {
+      // `rosparam set x inf` stores a string; the range checks decide whether inf is allowed.
+      *value = std::numeric_limits<double>::infinity();
     } else {
       fail(name, v, "a number");
     }
