@@ -157,10 +157,10 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
     cloud_sub_.unsubscribe();
     subscribed_ = false;
   }
-  exact_sync_.reset();
   approximate_sync_.reset();
   disparity_filter_.reset();
   cloud_filter_.reset();
+  exact_matcher_.reset();
   {
     std::lock_guard<std::mutex> lock(slot_mutex_);
     stop_ = true;
@@ -206,10 +206,22 @@ void ObstacleDetectionRos::setUpInputs() {
                                                     boost::placeholders::_1,
                                                     boost::placeholders::_2));
   } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(q), *disparity_filter_, left_info_sub_);
-    exact_sync_->registerCallback(boost::bind(&ObstacleDetectionRos::disparityCb, this,
-                                              boost::placeholders::_1, boost::placeholders::_2));
+    FrameMatcher::Limits limits;  // see exact_stamp_matcher.h: why not ExactTime
+    limits.keep = 30.0;           // the tf buffer's cache
+    limits.max_waiting_primary = static_cast<std::size_t>(std::max(q, 1));
+    exact_matcher_ = std::make_unique<FrameMatcher>(
+        limits,
+        [this](const stereo_msgs::DisparityImageConstPtr& d,
+               const sensor_msgs::CameraInfoConstPtr& l) { disparityCb(d, l); },
+        [this](const ros::Time& stamp, const std::string& why) {
+          reject("no camera info", unmatchedDisparityMessage(stamp, why));
+        });
+    disparity_filter_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr& m) {
+      exact_matcher_->add<0>(m->header.stamp, m);
+    });
+    left_info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      exact_matcher_->add<1>(m->header.stamp, m);
+    });
   }
 }
 

@@ -53,10 +53,15 @@ Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 Occupancy2DRos::~Occupancy2DRos() {
-  // Inputs first, so that no callback enqueues while the worker stops.
-  exact_sync_.reset();
+  // Inputs first, so that no callback enqueues while the worker stops: the subscriptions end
+  // (each waits for its callback in progress), then the filters, which disconnect from the
+  // subscribers, then the subscribers.
+  disparity_sub_->unsubscribe();
+  left_info_sub_->unsubscribe();
+  right_info_sub_->unsubscribe();
   approximate_sync_.reset();
   disparity_filter_.reset();
+  exact_matcher_.reset();
   disparity_sub_.reset();
   left_info_sub_.reset();
   right_info_sub_.reset();
@@ -96,11 +101,25 @@ void Occupancy2DRos::setUpInputs() {
         boost::bind(&Occupancy2DRos::disparityCb, this, boost::placeholders::_1,
                     boost::placeholders::_2, boost::placeholders::_3));
   } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(q), *disparity_filter_, *left_info_sub_, *right_info_sub_);
-    exact_sync_->registerCallback(boost::bind(&Occupancy2DRos::disparityCb, this,
-                                              boost::placeholders::_1, boost::placeholders::_2,
-                                              boost::placeholders::_3));
+    FrameMatcher::Limits limits;  // see exact_stamp_matcher.h: why not ExactTime
+    limits.keep = 30.0;           // the tf buffer's cache
+    limits.max_waiting_primary = static_cast<std::size_t>(std::max(q, 1));
+    exact_matcher_ = std::make_unique<FrameMatcher>(
+        limits,
+        [this](const stereo_msgs::DisparityImageConstPtr& d, const sensor_msgs::CameraInfoConstPtr& l,
+               const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
+        [this](const ros::Time& stamp, const std::string& why) {
+          reject("no camera info", unmatchedDisparityMessage(stamp, why));
+        });
+    disparity_filter_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr& m) {
+      exact_matcher_->add<0>(m->header.stamp, m);
+    });
+    left_info_sub_->registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      exact_matcher_->add<1>(m->header.stamp, m);
+    });
+    right_info_sub_->registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      exact_matcher_->add<2>(m->header.stamp, m);
+    });
   }
 }
 

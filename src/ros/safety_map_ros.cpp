@@ -30,7 +30,9 @@ namespace {
 
 constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
 constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
-constexpr std::size_t kMaxArrivals = 64;
+// Frames between their check and the worker are at most queue_size in the tf filter and
+// queue_size in the matcher; more entries are leftovers (e.g. a repeated stamp).
+constexpr std::size_t kMaxArrivals = 256;
 constexpr double kAgePeriod = 1.0;  // [s] between two agings of the map by the clock
 
 // A file of ~save: its final path, the temporary one it is written to first, its bytes.
@@ -176,10 +178,10 @@ SafetyMapRos::~SafetyMapRos() {
   left_info_sub_.shutdown();
   right_info_sub_.shutdown();
   cloud_sub_.shutdown();
-  exact_sync_.reset();
   approximate_sync_.reset();
   disparity_filter_.reset();
   cloud_filter_.reset();
+  exact_matcher_.reset();
   {
     std::lock_guard<std::mutex> lock(slot_mutex_);
     stop_ = true;
@@ -190,7 +192,7 @@ SafetyMapRos::~SafetyMapRos() {
 
 void SafetyMapRos::setUpInputs() {
   const int q = ros_config_.queue_size;
-  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(30.0));
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(kTfCacheTime));
   tf_listener_ = std::make_shared<tf2_ros::TransformListener>(*tf_buffer_, nh_);
   auto failure = [this](const auto& msg, tf2_ros::filter_failure_reasons::FilterFailureReason r) {
     tfFailure(msg->header, r);
@@ -218,11 +220,29 @@ void SafetyMapRos::setUpInputs() {
         boost::bind(&SafetyMapRos::disparityCb, this, boost::placeholders::_1,
                     boost::placeholders::_2, boost::placeholders::_3));
   } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(q), *disparity_filter_, left_info_in_, right_info_in_);
-    exact_sync_->registerCallback(boost::bind(&SafetyMapRos::disparityCb, this,
-                                              boost::placeholders::_1, boost::placeholders::_2,
-                                              boost::placeholders::_3));
+    // A frame's parts are kept as long as the tf buffer keeps transforms: a disparity that
+    // waited longer in the tf filter could not be placed anyway. Disparities whose CameraInfo
+    // do not come are dropped, named, once queue_size newer ones wait.
+    FrameMatcher::Limits limits;
+    limits.keep = kTfCacheTime;
+    limits.max_waiting_primary = static_cast<std::size_t>(std::max(q, 1));
+    exact_matcher_ = std::make_unique<FrameMatcher>(
+        limits,
+        [this](const stereo_msgs::DisparityImageConstPtr& d, const sensor_msgs::CameraInfoConstPtr& l,
+               const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
+        [this](const ros::Time& stamp, const std::string& why) {
+          tfWaitMs(stamp);  // forget its arrival
+          reject("no camera info", unmatchedDisparityMessage(stamp, why));
+        });
+    disparity_filter_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr& m) {
+      exact_matcher_->add<0>(m->header.stamp, m);
+    });
+    left_info_in_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      exact_matcher_->add<1>(m->header.stamp, m);
+    });
+    right_info_in_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      exact_matcher_->add<2>(m->header.stamp, m);
+    });
   }
   // Subscribed last: the chain behind them is complete.
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", q, &SafetyMapRos::leftInfoIn, this);
@@ -231,7 +251,7 @@ void SafetyMapRos::setUpInputs() {
 }
 
 void SafetyMapRos::disparityIn(const stereo_msgs::DisparityImageConstPtr& msg) {
-  noteArrival(msg->header);
+  countArrival();
   DisparityImageStats stats;
   const std::string err = checkDisparityImage(*msg, &stats);
   if (!err.empty()) {
@@ -246,6 +266,7 @@ void SafetyMapRos::disparityIn(const stereo_msgs::DisparityImageConstPtr& msg) {
     reject(stats.non_finite > 0 ? "non-finite input" : "no valid data", os.str());
     return;
   }
+  noteArrival(msg->header.stamp);
   disparity_in_.add(msg);
 }
 
@@ -272,7 +293,7 @@ void SafetyMapRos::rightInfoIn(const sensor_msgs::CameraInfoConstPtr& msg) {
 }
 
 void SafetyMapRos::cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg) {
-  noteArrival(msg->header);
+  countArrival();
   CloudStats stats;
   const std::string err = checkPointCloud2(*msg, &stats);
   if (!err.empty()) {
@@ -286,37 +307,36 @@ void SafetyMapRos::cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg) {
     reject("non-finite input", os.str());
     return;
   }
+  noteArrival(msg->header.stamp);
   cloud_in_.add(msg);
 }
 
-void SafetyMapRos::noteArrival(const std_msgs::Header& header) {
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_received_;
-    ++window_received_;
-    last_arrival_ = ros::WallTime::now();
-  }
-  std::lock_guard<std::mutex> lock(arrival_mutex_);
-  arrivals_.emplace_back(header.stamp, Clock::now());
-  while (arrivals_.size() > kMaxArrivals)
-    arrivals_.pop_front();
+void SafetyMapRos::countArrival() {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++frames_received_;
+  ++window_received_;
+  last_arrival_ = ros::WallTime::now();
 }
 
-double SafetyMapRos::tfWaitMs(const std_msgs::Header& header) {
+void SafetyMapRos::noteArrival(const ros::Time& stamp) {
   std::lock_guard<std::mutex> lock(arrival_mutex_);
-  for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it) {
-    if (it->first == header.stamp) {
-      const double ms =
-          std::chrono::duration<double, std::milli>(Clock::now() - it->second).count();
-      arrivals_.erase(arrivals_.begin(), it + 1);
-      return ms;
-    }
-  }
-  return 0.0;
+  arrivals_.emplace(stamp, Clock::now());  // a repeated stamp keeps the first arrival
+  while (arrivals_.size() > kMaxArrivals)
+    arrivals_.erase(arrivals_.begin());
+}
+
+double SafetyMapRos::tfWaitMs(const ros::Time& stamp) {
+  std::lock_guard<std::mutex> lock(arrival_mutex_);
+  const auto it = arrivals_.find(stamp);
+  if (it == arrivals_.end()) return 0.0;
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - it->second).count();
+  arrivals_.erase(it);
+  return ms;
 }
 
 void SafetyMapRos::tfFailure(const std_msgs::Header& header,
                              tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+  tfWaitMs(header.stamp);  // forget its arrival
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++tf_failures_;
@@ -347,7 +367,7 @@ void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& dispar
   std::string err = cameraModelFromCameraInfo(*left, *right, &camera);
   if (err.empty()) err = cameraModelForDisparity(*disparity, *left, &camera);
   if (!err.empty()) {
-    tfWaitMs(disparity->header);  // forget its arrival
+    tfWaitMs(disparity->header.stamp);  // forget its arrival
     reject("bad camera model", "dropped a disparity frame: " + err);
     return;
   }
@@ -356,7 +376,9 @@ void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& dispar
   frame->disparity = disparity;
   frame->left_info = left;
   frame->right_info = right;
-  frame->tf_wait_ms = tfWaitMs(disparity->header);
+  frame->tf_wait_ms = tfWaitMs(disparity->header.stamp);
+  ROS_DEBUG_STREAM_NAMED("frames", name_ << ": synced disparity frame " << disparity->header.stamp
+                                         << ", tf wait " << frame->tf_wait_ms << " ms");
   enqueue(std::move(frame));
 }
 
@@ -364,11 +386,25 @@ void SafetyMapRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
   auto frame = std::make_unique<Frame>();
   frame->header = cloud->header;
   frame->cloud = cloud;
-  frame->tf_wait_ms = tfWaitMs(cloud->header);
+  frame->tf_wait_ms = tfWaitMs(cloud->header.stamp);
   enqueue(std::move(frame));
 }
 
 void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
+  const ros::Time enqueued_stamp = frame->header.stamp;
+  // A transform that came long after its frame: tf stalled, and the pose of a frame in the gap
+  // would be interpolated between samples seconds apart, not measured. Refused here, before the
+  // slot, so that it never replaces a waiting frame and is always named, in whatever order the
+  // frames of the gap and those after it come out of the tf filter.
+  if (frame->tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
+    std::ostringstream os;
+    os << "dropped a frame at t = " << enqueued_stamp << ": its transform came "
+       << frame->tf_wait_ms / 1000.0 << " s after it (more than max_tf_wait = "
+       << ros_config_.max_tf_wait
+       << " s): tf stalled, the pose would be interpolated across the gap";
+    reject("stale tf", os.str());
+    return;
+  }
   bool dropped = false;
   std::string out_of_order;
   {
@@ -409,6 +445,8 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
     reject("out of order", out_of_order);
     return;
   }
+  ROS_DEBUG_STREAM_NAMED("frames", name_ << ": enqueued frame " << enqueued_stamp
+                                         << (dropped ? " (replaced a waiting frame)" : ""));
   slot_cv_.notify_one();
   if (dropped) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -459,7 +497,11 @@ void SafetyMapRos::reject(const std::string& reason, const std::string& detail) 
       log = true;
     }
   }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  if (log) {
+    ROS_WARN_STREAM(name_ << ": " << detail);
+  } else {  // every refusal, for whoever follows the frames (logger ros.stereo_safety_map.frames)
+    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": " << reason << ": " << detail);
+  }
 }
 
 void SafetyMapRos::processFrame(const Frame& frame) {
@@ -475,17 +517,6 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   } else if (!last_stamp_.isZero() && stamp <= last_stamp_) {
     reject("out of order", "dropped a frame out of order: stamp " + std::to_string(stamp.toSec()) +
                                " is not newer than the last frame's");
-    return;
-  }
-
-  // A transform that came long after its frame: tf stalled, and the pose of a frame in the gap
-  // would be interpolated between samples seconds apart, not measured.
-  if (frame.tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
-    std::ostringstream os;
-    os << "dropped a frame at t = " << stamp << ": its transform came " << frame.tf_wait_ms / 1000.0
-       << " s after it (more than max_tf_wait = " << ros_config_.max_tf_wait
-       << " s): tf stalled, the pose would be interpolated across the gap";
-    reject("stale tf", os.str());
     return;
   }
 
@@ -638,6 +669,8 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     }
     tf_wait_ms_sum_ += frame.tf_wait_ms;
     ++tf_wait_count_;
+    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": frame " << stamp << " "
+                                           << toString(result.status) << " in " << ms << " ms");
     return;
   }
   reject("refused by the core", std::string("frame ") + toString(result.status));

@@ -304,6 +304,23 @@ TEST_F(BadInputTest, MissingTf) {
       "no tf", 8);
 }
 
+TEST_F(BadInputTest, DisparityWithoutACameraInfoOfItsStampIsNamed) {
+  // A driver that stamps the right CameraInfo 10 ms after the disparity: with exact matching
+  // (approximate_sync false) no frame completes. Once queue_size = 5 newer disparities wait, the
+  // oldest is dropped with a message that says what is missing.
+  checkBad(
+      false,
+      [] {
+        std_msgs::Header h = header();
+        auto d = disp_->goodDisparity();
+        d.header.stamp = d.image.header.stamp = h.stamp;
+        const auto left = synthetic_scene::cameraInfo(false, h);
+        h.stamp += ros::Duration(0.01);
+        disp_->publishDisparityParts(d, left, synthetic_scene::cameraInfo(true, h));
+      },
+      "CameraInfo published with the disparity's stamp", 8);
+}
+
 TEST_F(BadInputTest, FrameOlderThanTheLastIsDropped) {
   waitIdle(*disp_labels_);
   const ros::Time last = disp_labels_->get()->header.stamp;

@@ -192,6 +192,11 @@ class ScenePublisher {
   void publishDisparity(stereo_msgs::DisparityImage d, sensor_msgs::CameraInfo l,
                         sensor_msgs::CameraInfo r, const ros::Time& stamp) {
     d.header.stamp = d.image.header.stamp = l.header.stamp = r.header.stamp = stamp;
+    publishDisparityParts(d, l, r);
+  }
+  /// A disparity frame's three messages as they are, each with its own stamp.
+  void publishDisparityParts(const stereo_msgs::DisparityImage& d, const sensor_msgs::CameraInfo& l,
+                             const sensor_msgs::CameraInfo& r) {
     left_info_.publish(l);
     right_info_.publish(r);
     disparity_.publish(d);

@@ -18,12 +18,12 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -68,8 +68,7 @@ class ObstacleDetectionRos {
  private:
   using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
   using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
-  using ExactPolicy = message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
-                                                                sensor_msgs::CameraInfo>;
+  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo>;
   using ApproximatePolicy =
       message_filters::sync_policies::ApproximateTime<stereo_msgs::DisparityImage,
                                                       sensor_msgs::CameraInfo>;
@@ -115,7 +114,7 @@ class ObstacleDetectionRos {
   message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
   std::unique_ptr<DisparityFilter> disparity_filter_;
   std::unique_ptr<CloudFilter> cloud_filter_;
-  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
   std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
 
   // Outputs.

@@ -15,12 +15,12 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
@@ -61,9 +61,8 @@ class Occupancy2DRos {
 
  private:
   using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
-  using ExactPolicy =
-      message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
-                                                sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using FrameMatcher =
+      ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
       stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;
@@ -100,7 +99,7 @@ class Occupancy2DRos {
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> left_info_sub_;
   std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> right_info_sub_;
   std::unique_ptr<DisparityFilter> disparity_filter_;
-  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
   std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
 
   ros::Publisher grid_pub_;

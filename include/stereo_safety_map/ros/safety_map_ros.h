@@ -6,7 +6,8 @@
 // callback first checks its message on its own (structure, values: conversions.h check*(), no
 // copy); a malformed message is counted and dropped there, so that it never reaches the tf2
 // MessageFilter, the sync or the queue, where it could push a valid message out. The sync
-// callback checks the frame as a whole (camera models, sizes, stamp order) and puts the frame
+// (exact_stamp_matcher.h unless approximate_sync: it keeps a frame's parts whatever else arrives,
+// where message_filters' ExactTime let a flood evict them) calls back with the frame; it checks the frame as a whole (camera models, sizes, stamp order) and puts the frame
 // (the message pointers) into a one-slot queue, so callbacks never wait for the pipeline. One
 // worker thread owned by this class takes frames from the slot and runs conversion, the core and
 // publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
@@ -36,6 +37,7 @@
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
 
@@ -43,7 +45,6 @@
 #include <dynamic_reconfigure/server.h>
 #include <message_filters/pass_through.h>
 #include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -90,9 +91,8 @@ class SafetyMapRos {
  private:
   using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
   using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
-  using ExactPolicy =
-      message_filters::sync_policies::ExactTime<stereo_msgs::DisparityImage,
-                                                sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using FrameMatcher =
+      ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
       stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;
@@ -118,12 +118,18 @@ class SafetyMapRos {
                    const sensor_msgs::CameraInfoConstPtr& left,
                    const sensor_msgs::CameraInfoConstPtr& right);
   void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
-  void noteArrival(const std_msgs::Header& header);
-  double tfWaitMs(const std_msgs::Header& header);
+  /// Counts a received frame (diagnostics).
+  void countArrival();
+  /// A checked frame enters the tf filter: its arrival time, for tfWaitMs().
+  void noteArrival(const ros::Time& stamp);
+  /// How long the frame stamped `stamp` waited since noteArrival() (0 if unknown); forgets it.
+  double tfWaitMs(const ros::Time& stamp);
   void tfFailure(const std_msgs::Header& header,
                  tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  /// Puts a frame into the slot unless its stamp is not newer than the newest frame's (then it
-  /// is dropped, or marks a restart when the clock went back as well: time_jump_reset).
+  /// Puts a frame into the slot unless its transform came more than max_tf_wait after it
+  /// ("stale tf"), or its stamp is not newer than the newest frame's (then it is dropped, or
+  /// marks a restart when the clock went back as well: time_jump_reset). A refused frame never
+  /// takes a waiting frame's place.
   void enqueue(std::unique_ptr<Frame> frame);
 
   void workerLoop();
@@ -165,7 +171,7 @@ class SafetyMapRos {
   message_filters::PassThrough<sensor_msgs::PointCloud2> cloud_in_;
   std::unique_ptr<DisparityFilter> disparity_filter_;
   std::unique_ptr<CloudFilter> cloud_filter_;
-  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
   std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
 
   // Outputs.
@@ -195,9 +201,11 @@ class SafetyMapRos {
   std::atomic<double> max_rate_{0.0};
   std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)
 
-  // Arrival times, to measure how long frames waited for tf (guarded by arrival_mutex_).
+  // Arrival times of the frames between their check and the worker (tf filter, matcher), by
+  // stamp, to measure how long each waited for tf (guarded by arrival_mutex_).
   std::mutex arrival_mutex_;
-  std::deque<std::pair<ros::Time, Clock::time_point>> arrivals_;
+  std::map<ros::Time, Clock::time_point> arrivals_;
+  static constexpr double kTfCacheTime = 30.0;  ///< [s] the tf buffer's cache
 
   // Worker-only buffers, reused from frame to frame.
   std::vector<Eigen::Vector3f> points_;
