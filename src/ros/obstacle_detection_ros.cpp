@@ -172,7 +172,7 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
 
 void ObstacleDetectionRos::setUpInputs() {
   const int q = ros_config_.queue_size;
-  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(30.0));
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(kTfCacheTime));
   tf_listener_ = std::make_shared<tf2_ros::TransformListener>(*tf_buffer_, nh_);
   if (ros_config_.input == "cloud") {
     cloud_sub_.registerCallback([this](const sensor_msgs::PointCloud2ConstPtr&) {
@@ -206,22 +206,15 @@ void ObstacleDetectionRos::setUpInputs() {
                                                     boost::placeholders::_1,
                                                     boost::placeholders::_2));
   } else {
-    FrameMatcher::Limits limits;  // see exact_stamp_matcher.h: why not ExactTime
-    limits.keep = 30.0;           // the tf buffer's cache
-    limits.max_waiting_primary = static_cast<std::size_t>(std::max(q, 1));
-    exact_matcher_ = std::make_unique<FrameMatcher>(
-        limits,
+    exact_matcher_ = std::make_unique<FrameMatcher>(  // exact_stamp_matcher.h: why not ExactTime
+        FrameMatcher::Limits::forNodelet(q),
         [this](const stereo_msgs::DisparityImageConstPtr& d,
                const sensor_msgs::CameraInfoConstPtr& l) { disparityCb(d, l); },
         [this](const ros::Time& stamp, const std::string& why) {
           reject("no camera info", unmatchedDisparityMessage(stamp, why));
         });
-    disparity_filter_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr& m) {
-      exact_matcher_->add<0>(m->header.stamp, m);
-    });
-    left_info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
-      exact_matcher_->add<1>(m->header.stamp, m);
-    });
+    exact_matcher_->connectInput<0>(*disparity_filter_);
+    exact_matcher_->connectInput<1>(left_info_sub_);
   }
 }
 

@@ -220,29 +220,17 @@ void SafetyMapRos::setUpInputs() {
         boost::bind(&SafetyMapRos::disparityCb, this, boost::placeholders::_1,
                     boost::placeholders::_2, boost::placeholders::_3));
   } else {
-    // A frame's parts are kept as long as the tf buffer keeps transforms: a disparity that
-    // waited longer in the tf filter could not be placed anyway. Disparities whose CameraInfo
-    // do not come are dropped, named, once queue_size newer ones wait.
-    FrameMatcher::Limits limits;
-    limits.keep = kTfCacheTime;
-    limits.max_waiting_primary = static_cast<std::size_t>(std::max(q, 1));
     exact_matcher_ = std::make_unique<FrameMatcher>(
-        limits,
+        FrameMatcher::Limits::forNodelet(q),
         [this](const stereo_msgs::DisparityImageConstPtr& d, const sensor_msgs::CameraInfoConstPtr& l,
                const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
         [this](const ros::Time& stamp, const std::string& why) {
           tfWaitMs(stamp);  // forget its arrival
           reject("no camera info", unmatchedDisparityMessage(stamp, why));
         });
-    disparity_filter_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr& m) {
-      exact_matcher_->add<0>(m->header.stamp, m);
-    });
-    left_info_in_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
-      exact_matcher_->add<1>(m->header.stamp, m);
-    });
-    right_info_in_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
-      exact_matcher_->add<2>(m->header.stamp, m);
-    });
+    exact_matcher_->connectInput<0>(*disparity_filter_);
+    exact_matcher_->connectInput<1>(left_info_in_);
+    exact_matcher_->connectInput<2>(right_info_in_);
   }
   // Subscribed last: the chain behind them is complete.
   left_info_sub_ = nh_.subscribe("stereo/left/camera_info", q, &SafetyMapRos::leftInfoIn, this);

@@ -4,6 +4,7 @@
 
 #include <boost/make_shared.hpp>
 #include <gtest/gtest.h>
+#include <message_filters/pass_through.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <stereo_msgs/DisparityImage.h>
 
@@ -179,6 +180,24 @@ TEST(ExactStampMatcher, IncompleteFramesExpireAfterKeep) {
   m.add<2>(stamp(3), info(3, "right"), t0 + std::chrono::milliseconds(4000));
   EXPECT_EQ(rec.dropped.size(), 1u);
   EXPECT_EQ(m.size(), 2u);  // frames 2 and 3
+}
+
+TEST(ExactStampMatcher, ConnectInputFeedsItFromMessageFilters) {
+  ros::Time::init();  // MessageEvent stamps its receipt time
+  Recorder rec;
+  Matcher m = rec.make();
+  message_filters::PassThrough<DisparityImage> d;
+  message_filters::PassThrough<CameraInfo> l, r;
+  m.connectInput<0>(d);
+  m.connectInput<1>(l);
+  m.connectInput<2>(r);
+  r.add(info(7, "right"));
+  d.add(disparity(7));
+  EXPECT_TRUE(rec.matched.empty());
+  l.add(info(7, "left"));
+  ASSERT_EQ(rec.matched.size(), 1u);
+  EXPECT_EQ(rec.matched[0], stamp(7));
+  EXPECT_TRUE(rec.consistent);
 }
 
 TEST(ExactStampMatcher, ConcurrentPartsMatchEachFrameExactlyOnce) {

@@ -36,6 +36,9 @@
 
 namespace stereo_safety_map {
 
+/// [s] The cache of the nodelets' tf2 buffers, and so how long a frame may usefully wait.
+constexpr double kTfCacheTime = 30.0;
+
 template <class Primary, class... Companions>
 class ExactStampMatcher {
  public:
@@ -45,9 +48,19 @@ class ExactStampMatcher {
   static constexpr std::size_t kParts = 1 + sizeof...(Companions);
 
   struct Limits {
-    double keep = 30.0;                    ///< [s] an incomplete frame is kept this long
-    std::size_t max_partial = 4096;        ///< incomplete frames kept at most
-    std::size_t max_waiting_primary = 5;   ///< incomplete frames holding their primary, at most
+    double keep = 30.0;                   ///< [s] an incomplete frame is kept this long
+    std::size_t max_partial = 4096;       ///< incomplete frames kept at most
+    std::size_t max_waiting_primary = 5;  ///< incomplete frames holding their primary, at most
+
+    /// The nodelets' limits: frames kept as long as a tf buffer of `tf_cache` s keeps
+    /// transforms (a disparity that waited longer in the tf filter could not be placed anyway),
+    /// `queue_size` disparities waiting for their CameraInfo.
+    static Limits forNodelet(int queue_size, double tf_cache = kTfCacheTime) {
+      Limits l;
+      l.keep = tf_cache;
+      l.max_waiting_primary = static_cast<std::size_t>(queue_size < 1 ? 1 : queue_size);
+      return l;
+    }
   };
 
   /// A complete frame (every part with the same stamp).
@@ -97,6 +110,16 @@ class ExactStampMatcher {
     for (const auto& d : drops)
       if (on_drop_) on_drop_(d.first, d.second);
     if (matched) callMatch(complete, std::make_index_sequence<kParts>());
+  }
+
+  /// Feeds part I from a message_filters source (a Subscriber, PassThrough, tf2 MessageFilter):
+  /// messages with a header, keyed by its stamp. Disconnect the source before destroying this.
+  template <std::size_t I, class Source>
+  void connectInput(Source& source) {
+    using Ptr = typename std::tuple_element<I, Messages>::type;
+    source.registerCallback([this](const Ptr& m) {
+      if (m) add<I>(m->header.stamp, m);
+    });
   }
 
   /// Incomplete frames kept now.

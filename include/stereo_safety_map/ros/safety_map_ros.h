@@ -26,6 +26,7 @@
 //   save_mutex_         writing ~save's files (after core_mutex_ is released).
 //   slot_mutex_         the slot, stop_ and newest_stamp_ (the stamp order), held for a swap.
 //   stats_mutex_        counters and diagnostics; arrival_mutex_: tf wait measurement.
+// The exact matcher has its own mutex, never held while it calls back (into disparityCb).
 // Worker-only state (points_, disparity_, camera_, previous_input_...) is touched by the worker
 // thread alone. Constant after the constructor: ros_config_ (but max_rate), config_error_,
 // min_depth_, max_depth_. Publishers are thread-safe in roscpp. The destructor stops the
@@ -205,7 +206,6 @@ class SafetyMapRos {
   // stamp, to measure how long each waited for tf (guarded by arrival_mutex_).
   std::mutex arrival_mutex_;
   std::map<ros::Time, Clock::time_point> arrivals_;
-  static constexpr double kTfCacheTime = 30.0;  ///< [s] the tf buffer's cache
 
   // Worker-only buffers, reused from frame to frame.
   std::vector<Eigen::Vector3f> points_;
