@@ -23,8 +23,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
-constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 constexpr char kDroppedReason[] = "input faster than processing";
 
 std::string sizeString(unsigned width, unsigned height) {
@@ -47,7 +45,7 @@ constexpr StepLabel kFilterSteps[] = {
 }  // namespace
 
 DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("disparity", this, &DisparityRos::diagnose);
@@ -189,7 +187,6 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
   }
   slot_cv_.notify_one();
 
-  bool log = false;
   std::uint64_t total_dropped = 0;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -199,15 +196,9 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
       ++frames_dropped_;
       ++window_dropped_;
       total_dropped = frames_dropped_;
-      const ros::WallTime now = ros::WallTime::now();
-      ros::WallTime& last = last_logged_[kDroppedReason];
-      if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-        last = now;
-        log = true;
-      }
     }
   }
-  if (log) {
+  if (dropped && problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": stereo frames arrive faster than the disparity is computed: the "
                              "waiting frame was replaced by a newer one ("
                           << total_dropped << " dropped so far; reduce the camera rate, "
@@ -233,21 +224,11 @@ void DisparityRos::workerLoop() {
 }
 
 void DisparityRos::reject(const std::string& reason, const std::string& detail) {
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_rejected_;
-    ++rejections_[reason];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_[reason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
   }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  problems_.report(reason, detail);
 }
 
 void DisparityRos::processFrame(const Frame& frame) {
@@ -519,14 +500,9 @@ void DisparityRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
                st.ran ? std::to_string(st.valid_before - st.valid_after) : std::string("off"));
     }
   }
-  for (const auto& r : rejections_)
-    stat.add("problem: " + r.first, r.second);
-  stat.add("last problem", last_problem_);
-
-  const bool recent_problem =
-      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
-  if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  problems_.addTo(stat);
+  if (problems_.recent(now)) {
+    stat.summary(DiagnosticStatus::WARN, problems_.last());
   } else if (window_dropped_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "dropping frames: %llu of %llu in the last %.1f s (the input is faster than "

@@ -15,13 +15,11 @@ namespace stereo_safety_map {
 
 namespace {
 
-constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
-constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 
 }  // namespace
 
 HybridSafetyMapRos::HybridSafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("laser + stereo");
   diagnostics_->add("hybrid safety map", this, &HybridSafetyMapRos::diagnose);
@@ -73,20 +71,7 @@ HybridSafetyMapRos::~HybridSafetyMapRos() {
 }
 
 void HybridSafetyMapRos::reject(const std::string& reason, const std::string& detail) {
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++rejections_[reason];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_[reason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
-  }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  problems_.report(reason, detail);
 }
 
 void HybridSafetyMapRos::scanTfFailure(const sensor_msgs::LaserScanConstPtr& scan,
@@ -95,16 +80,8 @@ void HybridSafetyMapRos::scanTfFailure(const sensor_msgs::LaserScanConstPtr& sca
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++tf_failures_;
   }
-  std::ostringstream os;
-  os << "dropped a scan at t = " << scan->header.stamp << " from '" << scan->header.frame_id
-     << "': no tf to '" << ros_config_.fixed_frame << "' ("
-     << (r == tf2_ros::filter_failure_reasons::EmptyFrameID
-             ? "empty frame_id"
-             : (r == tf2_ros::filter_failure_reasons::OutTheBack
-                    ? "older than the transforms tf still holds"
-                    : "no transform arrived while it waited in the queue"))
-     << "). Is the laser in the tf tree?";
-  reject("missing tf", os.str());
+  reject("missing tf", tfFilterFailureMessage("scan", scan->header, ros_config_.fixed_frame, r,
+                                                "Is the laser in the tf tree?"));
 }
 
 void HybridSafetyMapRos::clearAll() {
@@ -295,14 +272,9 @@ void HybridSafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   const char* names[5] = {"unknown", "safe", "caution", "hazard", "obstacle"};
   for (int k = 0; k < 5; ++k)
     stat.add(std::string("cells ") + names[k], label_counts_[k]);
-  for (const auto& r : rejections_)
-    stat.add("problem: " + r.first, r.second);
-  stat.add("last problem", last_problem_);
-
-  const bool recent_problem =
-      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
-  if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  problems_.addTo(stat);
+  if (problems_.recent(now)) {
+    stat.summary(DiagnosticStatus::WARN, problems_.last());
   } else if (scans_received_ == 0 && maps_received_ == 0) {
     stat.summary(DiagnosticStatus::OK, "waiting for input");
   } else if (maps_received_ == 0 || last_publish_laser_only_) {

@@ -26,8 +26,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
-constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 constexpr char kDroppedReason[] = "input faster than processing";
 
 std::string str(double v) {
@@ -108,7 +106,7 @@ std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xy
 }
 
 ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("obstacle detection", this, &ObstacleDetectionRos::diagnose);
@@ -186,7 +184,7 @@ void ObstacleDetectionRos::setUpInputs() {
         boost::bind(&ObstacleDetectionRos::cloudCb, this, boost::placeholders::_1));
     cloud_filter_->registerFailureCallback(
         [this](const sensor_msgs::PointCloud2ConstPtr& m,
-               tf2_ros::filter_failure_reasons::FilterFailureReason) { tfFailure(m->header); });
+               tf2_ros::filter_failure_reasons::FilterFailureReason r) { tfFailure(m->header, r); });
     return;
   }
   disparity_sub_.registerCallback([this](const stereo_msgs::DisparityImageConstPtr&) {
@@ -198,7 +196,7 @@ void ObstacleDetectionRos::setUpInputs() {
                                                         ros_config_.fixed_frame, q, nh_);
   disparity_filter_->registerFailureCallback(
       [this](const stereo_msgs::DisparityImageConstPtr& m,
-             tf2_ros::filter_failure_reasons::FilterFailureReason) { tfFailure(m->header); });
+             tf2_ros::filter_failure_reasons::FilterFailureReason r) { tfFailure(m->header, r); });
   if (ros_config_.approximate_sync) {
     approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
         ApproximatePolicy(q), *disparity_filter_, left_info_sub_);
@@ -240,15 +238,15 @@ void ObstacleDetectionRos::connectCb() {
   }
 }
 
-void ObstacleDetectionRos::tfFailure(const std_msgs::Header& header) {
+void ObstacleDetectionRos::tfFailure(const std_msgs::Header& header,
+                                     tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++tf_failures_;
   }
-  std::ostringstream os;
-  os << "dropped a frame at t = " << header.stamp << " from '" << header.frame_id << "': no tf to '"
-     << ros_config_.fixed_frame << "' (gravity is that frame's z axis). Is the tf tree complete?";
-  reject("missing tf", os.str());
+  reject("missing tf",
+         tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason,
+                                "Gravity is that frame's z axis: is the tf tree complete?"));
 }
 
 void ObstacleDetectionRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
@@ -277,19 +275,12 @@ void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
   }
   slot_cv_.notify_one();
   if (!dropped) return;
-  bool log = false;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_dropped_;
     ++window_dropped_;
-    const ros::WallTime now = ros::WallTime::now();
-    ros::WallTime& last = last_logged_[kDroppedReason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
   }
-  if (log) {
+  if (problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": frames arrive faster than obstacles are detected: the waiting "
                              "frame was replaced by a newer one");
   }
@@ -313,21 +304,11 @@ void ObstacleDetectionRos::workerLoop() {
 }
 
 void ObstacleDetectionRos::reject(const std::string& reason, const std::string& detail) {
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
-  {
+  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (reason != "missing tf") ++frames_rejected_;  // tf drops are counted in tf_failures_
-    ++rejections_[reason];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_[reason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
+    ++frames_rejected_;
   }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  problems_.report(reason, detail);
 }
 
 void ObstacleDetectionRos::processFrame(const Frame& frame) {
@@ -608,14 +589,9 @@ void ObstacleDetectionRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("obstacle points, last frame", obstacle_points_last_);
   stat.add("obstacles accepted, last frame", accepted_last_);
   stat.add("obstacles rejected (Sec. 5 rules), last frame", rejected_last_);
-  for (const auto& r : rejections_)
-    stat.add("problem: " + r.first, r.second);
-  stat.add("last problem", last_problem_);
-
-  const bool recent_problem =
-      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
-  if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  problems_.addTo(stat);
+  if (problems_.recent(now)) {
+    stat.summary(DiagnosticStatus::WARN, problems_.last());
   } else if (window_dropped_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "dropping frames: %llu of %llu in the last %.1f s (the input is faster than "

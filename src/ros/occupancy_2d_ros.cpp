@@ -15,13 +15,11 @@ namespace stereo_safety_map {
 
 namespace {
 
-constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
-constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 
 }  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("occupancy grid 2d", this, &Occupancy2DRos::diagnose);
@@ -120,22 +118,7 @@ void Occupancy2DRos::tfFailure(const std_msgs::Header& header,
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++tf_failures_;
   }
-  std::string why;
-  switch (reason) {
-    case tf2_ros::filter_failure_reasons::OutTheBack:
-      why = "the message is older than the transforms tf still holds";
-      break;
-    case tf2_ros::filter_failure_reasons::EmptyFrameID:
-      why = "the message has an empty frame_id";
-      break;
-    default:
-      why = "no transform arrived while it waited in the queue";
-      break;
-  }
-  std::ostringstream os;
-  os << "dropped a frame at t = " << header.stamp << " from '" << header.frame_id << "': no tf to '"
-     << ros_config_.fixed_frame << "' (" << why << "). Is the tf tree complete?";
-  reject("missing tf", os.str());
+  reject("missing tf", tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason));
 }
 
 void Occupancy2DRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
@@ -188,21 +171,11 @@ void Occupancy2DRos::workerLoop() {
 }
 
 void Occupancy2DRos::reject(const std::string& reason, const std::string& detail) {
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
-  {
+  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (reason != "missing tf") ++frames_rejected_;  // tf drops are counted in tf_failures_
-    ++rejections_[reason];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_[reason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
+    ++frames_rejected_;
   }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  problems_.report(reason, detail);
 }
 
 void Occupancy2DRos::processFrame(const Frame& frame) {
@@ -285,8 +258,7 @@ void Occupancy2DRos::processFrame(const Frame& frame) {
       grid_->clear();
       std::lock_guard<std::mutex> stats_lock(stats_mutex_);
       ++map_resets_;
-      last_problem_ = "time went backwards: grid reset";
-      last_problem_time_ = ros::WallTime::now();
+      problems_.note("time went backwards: grid reset");
     }
     last_stamp_ = stamp;
     if (ros_config_.scroll_with_robot) grid_->recenter(base.head<2>());
@@ -352,14 +324,9 @@ void Occupancy2DRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
   stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
   stat.addf("processing time, mean [ms]", "%.1f",
             frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
-  for (const auto& r : rejections_)
-    stat.add("problem: " + r.first, r.second);
-  stat.add("last problem", last_problem_);
-
-  const bool recent_problem =
-      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
-  if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem_);
+  problems_.addTo(stat);
+  if (problems_.recent(now)) {
+    stat.summary(DiagnosticStatus::WARN, problems_.last());
   } else if (window_dropped_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "

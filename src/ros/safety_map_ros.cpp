@@ -28,8 +28,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-constexpr double kLogPeriod = 5.0;      // [s] between two messages about the same problem
-constexpr double kProblemRecent = 5.0;  // [s] a problem keeps the diagnostic at WARN
 // Frames between their check and the worker are at most queue_size in the tf filter and
 // queue_size in the matcher; more entries are leftovers (e.g. a repeated stamp).
 constexpr std::size_t kMaxArrivals = 256;
@@ -85,7 +83,7 @@ std::string writeFilesAtomically(std::vector<SaveFile>* files) {
 }  // namespace
 
 SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()) {
+    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
   diagnostics_->setHardwareID("stereo camera");
   diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
@@ -329,22 +327,7 @@ void SafetyMapRos::tfFailure(const std_msgs::Header& header,
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++tf_failures_;
   }
-  std::string why;
-  switch (reason) {
-    case tf2_ros::filter_failure_reasons::OutTheBack:
-      why = "the message is older than the transforms tf still holds";
-      break;
-    case tf2_ros::filter_failure_reasons::EmptyFrameID:
-      why = "the message has an empty frame_id";
-      break;
-    default:
-      why = "no transform arrived while it waited in the queue";
-      break;
-  }
-  std::ostringstream os;
-  os << "dropped a frame at t = " << header.stamp << " from '" << header.frame_id << "': no tf to '"
-     << ros_config_.fixed_frame << "' (" << why << "). Is the tf tree complete?";
-  reject("missing tf", os.str());
+  reject("missing tf", tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason));
 }
 
 void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
@@ -471,25 +454,11 @@ void SafetyMapRos::workerLoop() {
 }
 
 void SafetyMapRos::reject(const std::string& reason, const std::string& detail) {
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
-  {
+  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    if (reason != "missing tf") ++frames_rejected_;  // tf drops are counted in tf_failures_
-    ++rejections_[reason];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_[reason];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
+    ++frames_rejected_;
   }
-  if (log) {
-    ROS_WARN_STREAM(name_ << ": " << detail);
-  } else {  // every refusal, for whoever follows the frames (logger ros.stereo_safety_map.frames)
-    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": " << reason << ": " << detail);
-  }
+  problems_.report(reason, detail);
 }
 
 void SafetyMapRos::processFrame(const Frame& frame) {
@@ -590,8 +559,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       if (landmarks_) landmarks_->reset();
       std::lock_guard<std::mutex> stats_lock(stats_mutex_);
       ++map_resets_;
-      last_problem_ = "time went backwards: map reset";
-      last_problem_time_ = ros::WallTime::now();
+      problems_.note("time went backwards: map reset");
     }
     last_stamp_ = stamp;
     // 001 Sec. 4.2: only points confirmed by permanent landmarks reach the grid. The filter
@@ -1037,26 +1005,23 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     stat.addf("landmark filter: time, last [ms]", "%.1f", landmark_ms_last_);
   }
   diagnoseObstacleCue(stat);
-  for (const auto& r : rejections_)
-    stat.add("problem: " + r.first, r.second);
-  stat.add("last problem", last_problem_);
-
-  const bool recent_problem =
-      !last_problem_time_.isZero() && (now - last_problem_time_).toSec() < kProblemRecent;
+  problems_.addTo(stat);
+  const bool recent_problem = problems_.recent(now);
+  const std::string last_problem = problems_.last();
   const double stale = ros_config_.stale_input_timeout;
   if (frames_received_ > 0 && since_input > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "no input for %.1f s: the map is not updated (cells not re-observed for "
                   "max_cell_age fall back to Unknown)%s%s",
                   since_input,
-                  last_problem_.empty() ? "" : "; last problem: ", last_problem_.c_str());
+                  last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
   } else if (frames_received_ > 0 && since_used > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "input arrives but no frame was used for %.1f s: the map is not updated%s%s",
                   since_used,
-                  last_problem_.empty() ? "" : "; last problem: ", last_problem_.c_str());
+                  last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
   } else if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem_);
+    stat.summary(DiagnosticStatus::WARN, last_problem);
   } else if (window_dropped_ > 0) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "
@@ -1124,20 +1089,7 @@ void SafetyMapRos::obstacleCueProblem(const std::string& detail) {
     std::lock_guard<std::mutex> lock(cue_mutex_);
     ++cues_refused_;
   }
-  const ros::WallTime now = ros::WallTime::now();
-  bool log = false;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++rejections_["obstacle cue"];
-    last_problem_ = detail;
-    last_problem_time_ = now;
-    ros::WallTime& last = last_logged_["obstacle cue"];
-    if (last.isZero() || (now - last).toSec() >= kLogPeriod) {
-      last = now;
-      log = true;
-    }
-  }
-  if (log) ROS_WARN_STREAM(name_ << ": " << detail);
+  problems_.report("obstacle cue", detail);
 }
 
 void SafetyMapRos::applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position) {

@@ -22,6 +22,7 @@
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
+#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/disparity_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -97,6 +98,7 @@ class DisparityRos {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string name_;
+  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
   std::string config_error_;
   DisparityRosConfig ros_config_;
   DisparityPipelineConfig pipeline_config_;  ///< accepted configuration (reconfigure thread)
@@ -148,10 +150,6 @@ class DisparityRos {
   std::uint64_t frames_processed_ = 0;
   std::uint64_t frames_dropped_ = 0;
   std::uint64_t frames_rejected_ = 0;
-  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
-  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
-  std::string last_problem_;
-  ros::WallTime last_problem_time_;
   DisparityStats last_stats_;
   std::string matcher_in_use_;
   double processing_ms_sum_ = 0.0;

@@ -19,6 +19,7 @@
 #include "stereo_safety_map/core/hybrid_safety_map.h"
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/safety_map.h"
+#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/msgs.h"
 
@@ -71,6 +72,7 @@ class HybridSafetyMapRos {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string name_;
+  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
   std::string config_error_;
   HybridSafetyMapRosConfig ros_config_;
   LaserGridConfig laser_config_;
@@ -114,10 +116,6 @@ class HybridSafetyMapRos {
   std::uint64_t invalid_ranges_ = 0;  ///< NaN / -inf / below range_min: skipped
   std::uint64_t no_return_ranges_ = 0;
   std::uint64_t resets_ = 0;
-  std::map<std::string, std::uint64_t> rejections_;
-  std::map<std::string, ros::WallTime> last_logged_;
-  std::string last_problem_;
-  ros::WallTime last_problem_time_;
   double build_ms_last_ = 0.0;
   std::uint64_t label_counts_[5] = {0, 0, 0, 0, 0};  ///< classes of the last published map
 };

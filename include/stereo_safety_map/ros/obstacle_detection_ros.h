@@ -18,6 +18,7 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 
@@ -85,7 +86,8 @@ class ObstacleDetectionRos {
   void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
                    const sensor_msgs::CameraInfoConstPtr& left_info);
   void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
-  void tfFailure(const std_msgs::Header& header);
+  void tfFailure(const std_msgs::Header& header,
+                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
   void enqueue(std::unique_ptr<Frame> frame);
   void workerLoop();
   void processFrame(const Frame& frame);
@@ -100,6 +102,7 @@ class ObstacleDetectionRos {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string name_;
+  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
   std::string config_error_;
   ObstacleDetectionRosConfig ros_config_;
   ObstacleDetectionConfig detector_config_;
@@ -147,10 +150,6 @@ class ObstacleDetectionRos {
   std::uint64_t frames_rejected_ = 0;
   std::uint64_t tf_failures_ = 0;
   std::uint64_t non_finite_values_ = 0;
-  std::map<std::string, std::uint64_t> rejections_;
-  std::map<std::string, ros::WallTime> last_logged_;
-  std::string last_problem_;
-  ros::WallTime last_problem_time_;
   double processing_ms_sum_ = 0.0;
   double detection_ms_last_ = 0.0;
   double focal_length_last_ = 0.0;

@@ -15,6 +15,7 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 
@@ -89,6 +90,7 @@ class Occupancy2DRos {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string name_;
+  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
   std::string config_error_;
   Occupancy2DRosConfig ros_config_;
   OccupancyGrid2DConfig grid_config_;
@@ -133,10 +135,6 @@ class Occupancy2DRos {
   std::uint64_t tf_failures_ = 0;
   std::uint64_t map_resets_ = 0;
   std::uint64_t non_finite_values_ = 0;
-  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
-  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
-  std::string last_problem_;
-  ros::WallTime last_problem_time_;
   Grid2DUpdateStats last_update_;
   double processing_ms_last_ = 0.0;
   double processing_ms_sum_ = 0.0;

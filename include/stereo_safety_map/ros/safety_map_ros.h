@@ -38,6 +38,7 @@
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
@@ -154,6 +155,7 @@ class SafetyMapRos {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string name_;
+  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
   std::string config_error_;
   SafetyMapRosConfig ros_config_;
   SafetyMapperConfig mapper_config_;
@@ -240,15 +242,11 @@ class SafetyMapRos {
   ros::WallTime last_arrival_;  ///< last disparity / cloud message received
   ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
-  std::map<std::string, std::uint64_t> rejections_;   ///< by reason
-  std::map<std::string, ros::WallTime> last_logged_;  ///< per reason, to throttle messages
   std::uint64_t non_finite_values_ = 0;               ///< NaN / inf pixels or points skipped
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
   double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
   double landmark_ms_last_ = 0.0;
   std::size_t landmarks_permanent_ = 0;
-  std::string last_problem_;
-  ros::WallTime last_problem_time_;
   double processing_ms_last_ = 0.0;
   double processing_ms_sum_ = 0.0;
   double tf_wait_ms_sum_ = 0.0;
