@@ -54,9 +54,11 @@ Occupancy2DRos::~Occupancy2DRos() {
   // Inputs first, so that no callback enqueues while the worker stops: the subscriptions end
   // (each waits for its callback in progress), then the filters, which disconnect from the
   // subscribers, then the subscribers.
-  disparity_sub_->unsubscribe();
-  left_info_sub_->unsubscribe();
-  right_info_sub_->unsubscribe();
+  for (auto* sub : {static_cast<message_filters::SubscriberBase*>(disparity_sub_.get()),
+                    static_cast<message_filters::SubscriberBase*>(left_info_sub_.get()),
+                    static_cast<message_filters::SubscriberBase*>(right_info_sub_.get())}) {
+    if (sub) sub->unsubscribe();  // none when the parameters were refused
+  }
   approximate_sync_.reset();
   disparity_filter_.reset();
   exact_matcher_.reset();

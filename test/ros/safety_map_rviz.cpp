@@ -25,6 +25,9 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& display) {
   const pid_t pid = fork();
   if (pid == 0) {
     setenv("DISPLAY", display.c_str(), 1);
+    // Xvfb, rviz and import are not ours: under scripts/test --sanitize they would inherit the
+    // sanitizer runtime that rostest's processes get preloaded for our nodelets.
+    unsetenv("LD_PRELOAD");
     setpgid(0, 0);
     std::vector<char*> argv;
     for (const auto& a : args)
