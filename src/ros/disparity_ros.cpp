@@ -106,7 +106,13 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   reconfigure_->setCallback(boost::bind(&DisparityRos::reconfigureCb, this, boost::placeholders::_1,
                                         boost::placeholders::_2));
 
-  worker_ = std::thread(&DisparityRos::workerLoop, this);
+  worker_ = std::thread([this] {
+    slot_.work([this](const Frame& frame) { processFrame(frame); },
+               [this] { return 0.0; },
+               [this](const std::string& what) {
+                 reject("exception", "frame skipped after an exception: " + what);
+               });
+  });
 
   // Monitor whether anyone listens; connectCb must not run between advertising and assigning
   // the publishers.
@@ -137,11 +143,7 @@ DisparityRos::~DisparityRos() {
     right_info_sub_.unsubscribe();
     subscribed_ = false;
   }
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    stop_ = true;
-  }
-  slot_cv_.notify_all();
+  slot_.stop();
   if (worker_.joinable()) worker_.join();
   diagnostics_timer_.stop();
 }
@@ -178,14 +180,9 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
   frame->left_info = left_info;
   frame->right_image = right_image;
   frame->right_info = right_info;
-  bool dropped = false;
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    if (stop_) return;
-    dropped = static_cast<bool>(slot_);
-    slot_ = std::move(frame);
-  }
-  slot_cv_.notify_one();
+  const auto put = slot_.put(std::move(frame));
+  if (put == FrameSlot<Frame>::Put::kStopped) return;
+  const bool dropped = put == FrameSlot<Frame>::Put::kReplaced;
 
   std::uint64_t total_dropped = 0;
   {
@@ -203,23 +200,6 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
                              "waiting frame was replaced by a newer one ("
                           << total_dropped << " dropped so far; reduce the camera rate, "
                           << "num_disparities or the image size, or use matcher bm)");
-  }
-}
-
-void DisparityRos::workerLoop() {
-  for (;;) {
-    std::unique_ptr<Frame> frame;
-    {
-      std::unique_lock<std::mutex> lock(slot_mutex_);
-      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
-      if (stop_) return;
-      frame = std::move(slot_);
-    }
-    try {
-      processFrame(*frame);
-    } catch (const std::exception& e) {
-      reject("exception", std::string("frame skipped after an exception: ") + e.what());
-    }
   }
 }
 

@@ -127,7 +127,13 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
   }
   detector_ = std::make_unique<ObstacleDetector>(detector_config_);  // validated: does not throw
 
-  worker_ = std::thread(&ObstacleDetectionRos::workerLoop, this);
+  worker_ = std::thread([this] {
+    slot_.work([this](const Frame& frame) { processFrame(frame); },
+               [this] { return 0.0; },
+               [this](const std::string& what) {
+                 reject("exception", "frame skipped after an exception: " + what);
+               });
+  });
   setUpInputs();
 
   // Advertise last: connectCb may run as soon as a publisher exists.
@@ -159,11 +165,7 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
   disparity_filter_.reset();
   cloud_filter_.reset();
   exact_matcher_.reset();
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    stop_ = true;
-  }
-  slot_cv_.notify_all();
+  slot_.stop();
   if (worker_.joinable()) worker_.join();
   diagnostics_timer_.stop();
 }
@@ -266,15 +268,7 @@ void ObstacleDetectionRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud
 }
 
 void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
-  bool dropped = false;
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    if (stop_) return;
-    dropped = static_cast<bool>(slot_);
-    slot_ = std::move(frame);
-  }
-  slot_cv_.notify_one();
-  if (!dropped) return;
+  if (slot_.put(std::move(frame)) != FrameSlot<Frame>::Put::kReplaced) return;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_dropped_;
@@ -283,23 +277,6 @@ void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
   if (problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": frames arrive faster than obstacles are detected: the waiting "
                              "frame was replaced by a newer one");
-  }
-}
-
-void ObstacleDetectionRos::workerLoop() {
-  for (;;) {
-    std::unique_ptr<Frame> frame;
-    {
-      std::unique_lock<std::mutex> lock(slot_mutex_);
-      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
-      if (stop_) return;
-      frame = std::move(slot_);
-    }
-    try {
-      processFrame(*frame);
-    } catch (const std::exception& e) {
-      reject("exception", std::string("frame skipped after an exception: ") + e.what());
-    }
   }
 }
 

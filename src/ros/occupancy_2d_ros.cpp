@@ -15,7 +15,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-
 }  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
@@ -42,7 +41,13 @@ Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   grid_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("occupancy_2d", 1, true);
   reset_srv_ = pnh_.advertiseService("reset", &Occupancy2DRos::resetSrv, this);
-  worker_ = std::thread(&Occupancy2DRos::workerLoop, this);
+  worker_ = std::thread([this] {
+    slot_.work([this](const Frame& frame) { processFrame(frame); },
+               [this] { return ros_config_.max_rate; },
+               [this](const std::string& what) {
+                 reject("exception", "frame skipped after an exception: " + what);
+               });
+  });
   setUpInputs();
   ROS_INFO_STREAM(name_ << ": 2D occupancy grid (002) in '" << ros_config_.fixed_frame
                         << "', height band " << grid_config_.floor_clearance << " .. "
@@ -65,11 +70,7 @@ Occupancy2DRos::~Occupancy2DRos() {
   disparity_sub_.reset();
   left_info_sub_.reset();
   right_info_sub_.reset();
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    stop_ = true;
-  }
-  slot_cv_.notify_all();
+  slot_.stop();
   if (worker_.joinable()) worker_.join();
   diagnostics_timer_.stop();
 }
@@ -130,45 +131,11 @@ void Occupancy2DRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disp
   frame->disparity = disparity;
   frame->left_info = left;
   frame->right_info = right;
-  bool dropped = false;
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    if (stop_) return;
-    dropped = static_cast<bool>(slot_);
-    slot_ = std::move(frame);
-  }
-  slot_cv_.notify_one();
+  const bool dropped = slot_.put(std::move(frame)) == FrameSlot<Frame>::Put::kReplaced;
   if (dropped) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_dropped_;
     ++window_dropped_;
-  }
-}
-
-void Occupancy2DRos::workerLoop() {
-  Clock::time_point last_start;
-  const double rate = ros_config_.max_rate;
-  for (;;) {
-    std::unique_ptr<Frame> frame;
-    {
-      std::unique_lock<std::mutex> lock(slot_mutex_);
-      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
-      if (stop_) return;
-      if (rate > 0.0) {
-        // Frames arriving meanwhile replace the waiting one (and are counted as drops).
-        const auto next = last_start + std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(1.0 / rate));
-        slot_cv_.wait_until(lock, next, [this] { return stop_; });
-        if (stop_) return;
-      }
-      frame = std::move(slot_);
-    }
-    last_start = Clock::now();
-    try {
-      processFrame(*frame);
-    } catch (const std::exception& e) {
-      reject("exception", std::string("frame skipped after an exception: ") + e.what());
-    }
   }
 }
 

@@ -153,7 +153,13 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   reconfigure_->setCallback(boost::bind(&SafetyMapRos::reconfigureCb, this, boost::placeholders::_1,
                                         boost::placeholders::_2));
 
-  worker_ = std::thread(&SafetyMapRos::workerLoop, this);
+  worker_ = std::thread([this] {
+    slot_.work([this](const Frame& frame) { processFrame(frame); },
+               [this] { return max_rate_.load(); },
+               [this](const std::string& what) {
+                 reject("exception", "frame skipped after an exception: " + what);
+               });
+  });
   age_timer_ = nh_.createWallTimer(ros::WallDuration(kAgePeriod),
                                    [this](const ros::WallTimerEvent&) { ageTimerCb(); });
   setUpInputs();
@@ -180,11 +186,7 @@ SafetyMapRos::~SafetyMapRos() {
   disparity_filter_.reset();
   cloud_filter_.reset();
   exact_matcher_.reset();
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    stop_ = true;
-  }
-  slot_cv_.notify_all();
+  slot_.stop();
   if (worker_.joinable()) worker_.join();
 }
 
@@ -376,12 +378,10 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
     reject("stale tf", os.str());
     return;
   }
-  bool dropped = false;
   std::string out_of_order;
-  {
-    std::lock_guard<std::mutex> lock(slot_mutex_);
-    if (stop_) return;
-    const ros::Time stamp = frame->header.stamp;
+  // Under the slot's lock: newest_stamp_ changes with the slot.
+  const auto put = slot_.putIf(std::move(frame), [&](Frame& incoming, const Frame* waiting) {
+    const ros::Time stamp = incoming.header.stamp;
     if (!newest_stamp_.isZero() && stamp <= newest_stamp_) {
       // Time went back. A restart (a bag played again) moves the clock back as well: the map is
       // reset once. A frame from the past while the clock runs on is stale: dropped, the map
@@ -391,7 +391,7 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
       const ros::Duration jump(ros_config_.time_jump_reset);
       const bool clock_back = now.isZero() || now + jump < newest_stamp_;
       if (back > ros_config_.time_jump_reset && clock_back) {
-        frame->reset_map = true;
+        incoming.reset_map = true;
       } else {
         std::ostringstream os;
         os << "dropped a frame out of order: stamp " << stamp << " is " << back
@@ -402,54 +402,26 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
                          " s")
            << "; the map is kept)";
         out_of_order = os.str();
+        return false;
       }
     }
-    if (out_of_order.empty()) {
-      newest_stamp_ = stamp;
-      // A waiting restart is not lost with the frame that carries it.
-      if (slot_ && slot_->reset_map) frame->reset_map = true;
-      dropped = static_cast<bool>(slot_);
-      slot_ = std::move(frame);
-    }
-  }
-  if (!out_of_order.empty()) {
+    newest_stamp_ = stamp;
+    // A waiting restart is not lost with the frame that carries it.
+    if (waiting && waiting->reset_map) incoming.reset_map = true;
+    return true;
+  });
+  if (put == FrameSlot<Frame>::Put::kStopped) return;
+  if (put == FrameSlot<Frame>::Put::kRefused) {
     reject("out of order", out_of_order);
     return;
   }
+  const bool dropped = put == FrameSlot<Frame>::Put::kReplaced;
   ROS_DEBUG_STREAM_NAMED("frames", name_ << ": enqueued frame " << enqueued_stamp
                                          << (dropped ? " (replaced a waiting frame)" : ""));
-  slot_cv_.notify_one();
   if (dropped) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++frames_dropped_;
     ++window_dropped_;
-  }
-}
-
-void SafetyMapRos::workerLoop() {
-  Clock::time_point last_start;
-  for (;;) {
-    std::unique_ptr<Frame> frame;
-    {
-      std::unique_lock<std::mutex> lock(slot_mutex_);
-      slot_cv_.wait(lock, [this] { return stop_ || slot_; });
-      if (stop_) return;
-      const double rate = max_rate_.load();
-      if (rate > 0.0) {
-        // Frames arriving meanwhile replace the waiting one (and are counted as drops).
-        const auto next = last_start + std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(1.0 / rate));
-        slot_cv_.wait_until(lock, next, [this] { return stop_; });
-        if (stop_) return;
-      }
-      frame = std::move(slot_);
-    }
-    last_start = Clock::now();
-    try {
-      processFrame(*frame);
-    } catch (const std::exception& e) {
-      reject("exception", std::string("frame skipped after an exception: ") + e.what());
-    }
   }
 }
 

@@ -22,6 +22,7 @@
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/disparity_params.h"
 
@@ -85,7 +86,6 @@ class DisparityRos {
                const sensor_msgs::CameraInfoConstPtr& left_info,
                const sensor_msgs::ImageConstPtr& right_image,
                const sensor_msgs::CameraInfoConstPtr& right_info);
-  void workerLoop();
   void processFrame(const Frame& frame);
   void publishDisparity(const std_msgs::Header& header);
   void publishCloud(const std_msgs::Header& header);
@@ -126,10 +126,7 @@ class DisparityRos {
   std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
 
   // One-slot queue between the sync callback and the worker.
-  std::mutex slot_mutex_;
-  std::condition_variable slot_cv_;
-  std::unique_ptr<Frame> slot_;
-  bool stop_ = false;
+  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
   std::thread worker_;
 
   // A configuration accepted by dynamic_reconfigure, waiting for the worker.

@@ -18,6 +18,7 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
@@ -89,7 +90,6 @@ class ObstacleDetectionRos {
   void tfFailure(const std_msgs::Header& header,
                  tf2_ros::filter_failure_reasons::FilterFailureReason reason);
   void enqueue(std::unique_ptr<Frame> frame);
-  void workerLoop();
   void processFrame(const Frame& frame);
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
   void reject(const std::string& reason, const std::string& detail);
@@ -128,10 +128,7 @@ class ObstacleDetectionRos {
   ros::Timer diagnostics_timer_;
 
   // One-slot queue between the callbacks and the worker.
-  std::mutex slot_mutex_;
-  std::condition_variable slot_cv_;
-  std::unique_ptr<Frame> slot_;
-  bool stop_ = false;
+  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
   std::thread worker_;
 
   // Worker-only: the core and buffers reused from frame to frame.

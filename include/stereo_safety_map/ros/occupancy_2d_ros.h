@@ -15,6 +15,7 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
@@ -80,7 +81,6 @@ class Occupancy2DRos {
                    const sensor_msgs::CameraInfoConstPtr& right);
   void tfFailure(const std_msgs::Header& header,
                  tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  void workerLoop();
   void processFrame(const Frame& frame);
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
   void reject(const std::string& reason, const std::string& detail);
@@ -110,10 +110,7 @@ class Occupancy2DRos {
   ros::Timer diagnostics_timer_;
 
   // One-slot queue between the callbacks and the worker.
-  std::mutex slot_mutex_;
-  std::condition_variable slot_cv_;
-  std::unique_ptr<Frame> slot_;
-  bool stop_ = false;
+  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
   std::thread worker_;
 
   // Worker-only buffers, reused from frame to frame.

@@ -24,7 +24,8 @@
 //                       reconfigureCb. Maps are published under it, so a message is never built
 //                       from a map being changed.
 //   save_mutex_         writing ~save's files (after core_mutex_ is released).
-//   slot_mutex_         the slot, stop_ and newest_stamp_ (the stamp order), held for a swap.
+//   the slot's mutex    (frame_slot.h) the slot and newest_stamp_ (the stamp order, changed in
+//                       putIf()'s accept), held for a swap.
 //   stats_mutex_        counters and diagnostics; arrival_mutex_: tf wait measurement.
 // The exact matcher has its own mutex, never held while it calls back (into disparityCb).
 // Worker-only state (points_, disparity_, camera_, previous_input_...) is touched by the worker
@@ -38,6 +39,7 @@
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
@@ -134,7 +136,6 @@ class SafetyMapRos {
   /// takes a waiting frame's place.
   void enqueue(std::unique_ptr<Frame> frame);
 
-  void workerLoop();
   void processFrame(const Frame& frame);
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
   void reject(const std::string& reason, const std::string& detail);
@@ -195,11 +196,8 @@ class SafetyMapRos {
   std::mutex save_mutex_;
 
   // One-slot queue between the callbacks and the worker.
-  std::mutex slot_mutex_;
-  std::condition_variable slot_cv_;
-  std::unique_ptr<Frame> slot_;
+  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
   ros::Time newest_stamp_;  ///< of the last frame put into the slot
-  bool stop_ = false;
   std::thread worker_;
   std::atomic<double> max_rate_{0.0};
   std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)

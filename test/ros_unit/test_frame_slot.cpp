@@ -1,0 +1,113 @@
+// FrameSlot (frame_slot.h): the one-slot queue between a nodelet's callbacks and its worker.
+#include "stereo_safety_map/ros/frame_slot.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using stereo_safety_map::FrameSlot;
+
+struct Frame {
+  int id = 0;
+  bool mark = false;
+};
+using Slot = FrameSlot<Frame>;
+
+std::unique_ptr<Frame> frame(int id) {
+  auto f = std::make_unique<Frame>();
+  f->id = id;
+  return f;
+}
+
+TEST(FrameSlot, TheNewestFrameWinsAndReplacingIsReported) {
+  Slot slot;
+  EXPECT_EQ(slot.put(frame(1)), Slot::Put::kQueued);
+  EXPECT_EQ(slot.put(frame(2)), Slot::Put::kReplaced);
+  const auto f = slot.take(0.0, Slot::Clock::now());
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 2);
+  EXPECT_EQ(slot.put(frame(3)), Slot::Put::kQueued);  // the slot was emptied by take()
+}
+
+TEST(FrameSlot, AcceptDecidesUnderTheLockAndSeesTheWaitingFrame) {
+  Slot slot;
+  int newest = 0;  // what a nodelet keeps beside the slot (e.g. the newest stamp)
+  const auto inOrder = [&](Frame& in, const Frame* waiting) {
+    if (in.id <= newest) return false;
+    newest = in.id;
+    if (waiting && waiting->mark) in.mark = true;  // a waiting mark is carried on
+    return true;
+  };
+  auto marked = frame(5);
+  marked->mark = true;
+  EXPECT_EQ(slot.putIf(std::move(marked), inOrder), Slot::Put::kQueued);
+  EXPECT_EQ(slot.putIf(frame(4), inOrder), Slot::Put::kRefused);
+  EXPECT_EQ(slot.putIf(frame(6), inOrder), Slot::Put::kReplaced);
+  const auto f = slot.take(0.0, Slot::Clock::now());
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 6);
+  EXPECT_TRUE(f->mark);
+}
+
+TEST(FrameSlot, StopEndsTakeAndRefusesLaterFrames) {
+  Slot slot;
+  std::unique_ptr<Frame> got = frame(-1);
+  std::thread worker([&] { got = slot.take(0.0, Slot::Clock::now()); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  slot.stop();
+  worker.join();
+  EXPECT_FALSE(got);
+  EXPECT_EQ(slot.put(frame(1)), Slot::Put::kStopped);
+}
+
+TEST(FrameSlot, MaxRateDelaysTheNextTakeAndNewerFramesReplaceMeanwhile) {
+  Slot slot;
+  const auto last_start = Slot::Clock::now();
+  slot.put(frame(1));
+  std::thread late([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    slot.put(frame(2));  // arrives while the worker waits for its next start
+  });
+  const auto f = slot.take(5.0, last_start);  // at most 5 frames / s: not before 200 ms
+  const double waited =
+      std::chrono::duration<double>(Slot::Clock::now() - last_start).count();
+  late.join();
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 2);
+  EXPECT_GE(waited, 0.19);
+}
+
+TEST(FrameSlot, WorkProcessesFramesAndSurvivesExceptions) {
+  Slot slot;
+  std::vector<int> processed;
+  std::vector<std::string> errors;
+  std::atomic<int> done{0};
+  std::thread worker([&] {
+    slot.work(
+        [&](const Frame& f) {
+          if (f.id == 2) throw std::runtime_error("bad frame");
+          processed.push_back(f.id);
+          ++done;
+        },
+        [] { return 0.0; }, [&](const std::string& what) {
+          errors.push_back(what);
+          ++done;
+        });
+  });
+  for (int id = 1; id <= 3; ++id) {
+    slot.put(frame(id));
+    while (done < id)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  slot.stop();
+  worker.join();
+  EXPECT_EQ(processed, (std::vector<int>{1, 3}));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0], "bad frame");
+}
+
+}  // namespace
