@@ -107,8 +107,7 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
                                         boost::placeholders::_2));
 
   worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); },
-               [this] { return 0.0; },
+    slot_.work([this](const Frame& frame) { processFrame(frame); }, [this] { return 0.0; },
                [this](const std::string& what) {
                  reject("exception", "frame skipped after an exception: " + what);
                });

@@ -13,10 +13,7 @@
 
 namespace stereo_safety_map {
 
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 HybridSafetyMapRos::HybridSafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
@@ -81,7 +78,7 @@ void HybridSafetyMapRos::scanTfFailure(const sensor_msgs::LaserScanConstPtr& sca
     ++tf_failures_;
   }
   reject("missing tf", tfFilterFailureMessage("scan", scan->header, ros_config_.fixed_frame, r,
-                                                "Is the laser in the tf tree?"));
+                                              "Is the laser in the tf tree?"));
 }
 
 void HybridSafetyMapRos::clearAll() {

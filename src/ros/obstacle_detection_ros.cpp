@@ -128,8 +128,7 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
   detector_ = std::make_unique<ObstacleDetector>(detector_config_);  // validated: does not throw
 
   worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); },
-               [this] { return 0.0; },
+    slot_.work([this](const Frame& frame) { processFrame(frame); }, [this] { return 0.0; },
                [this](const std::string& what) {
                  reject("exception", "frame skipped after an exception: " + what);
                });
@@ -186,7 +185,9 @@ void ObstacleDetectionRos::setUpInputs() {
         boost::bind(&ObstacleDetectionRos::cloudCb, this, boost::placeholders::_1));
     cloud_filter_->registerFailureCallback(
         [this](const sensor_msgs::PointCloud2ConstPtr& m,
-               tf2_ros::filter_failure_reasons::FilterFailureReason r) { tfFailure(m->header, r); });
+               tf2_ros::filter_failure_reasons::FilterFailureReason r) {
+          tfFailure(m->header, r);
+        });
     return;
   }
   disparity_sub_.registerCallback([this](const stereo_msgs::DisparityImageConstPtr&) {

@@ -13,9 +13,7 @@
 
 namespace stereo_safety_map {
 
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
@@ -104,7 +102,8 @@ void Occupancy2DRos::setUpInputs() {
   } else {
     exact_matcher_ = std::make_unique<FrameMatcher>(  // exact_stamp_matcher.h: why not ExactTime
         FrameMatcher::Limits::forNodelet(q),
-        [this](const stereo_msgs::DisparityImageConstPtr& d, const sensor_msgs::CameraInfoConstPtr& l,
+        [this](const stereo_msgs::DisparityImageConstPtr& d,
+               const sensor_msgs::CameraInfoConstPtr& l,
                const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
         [this](const ros::Time& stamp, const std::string& why) {
           reject("no camera info", unmatchedDisparityMessage(stamp, why));

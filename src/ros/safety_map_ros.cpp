@@ -222,7 +222,8 @@ void SafetyMapRos::setUpInputs() {
   } else {
     exact_matcher_ = std::make_unique<FrameMatcher>(
         FrameMatcher::Limits::forNodelet(q),
-        [this](const stereo_msgs::DisparityImageConstPtr& d, const sensor_msgs::CameraInfoConstPtr& l,
+        [this](const stereo_msgs::DisparityImageConstPtr& d,
+               const sensor_msgs::CameraInfoConstPtr& l,
                const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
         [this](const ros::Time& stamp, const std::string& why) {
           tfWaitMs(stamp);  // forget its arrival
@@ -372,8 +373,8 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
   if (frame->tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
     std::ostringstream os;
     os << "dropped a frame at t = " << enqueued_stamp << ": its transform came "
-       << frame->tf_wait_ms / 1000.0 << " s after it (more than max_tf_wait = "
-       << ros_config_.max_tf_wait
+       << frame->tf_wait_ms / 1000.0
+       << " s after it (more than max_tf_wait = " << ros_config_.max_tf_wait
        << " s): tf stalled, the pose would be interpolated across the gap";
     reject("stale tf", os.str());
     return;
@@ -597,8 +598,8 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     }
     tf_wait_ms_sum_ += frame.tf_wait_ms;
     ++tf_wait_count_;
-    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": frame " << stamp << " "
-                                           << toString(result.status) << " in " << ms << " ms");
+    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": frame " << stamp << " " << toString(result.status)
+                                           << " in " << ms << " ms");
     return;
   }
   reject("refused by the core", std::string("frame ") + toString(result.status));
@@ -990,8 +991,7 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   } else if (frames_received_ > 0 && since_used > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "input arrives but no frame was used for %.1f s: the map is not updated%s%s",
-                  since_used,
-                  last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
+                  since_used, last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
   } else if (recent_problem) {
     stat.summary(DiagnosticStatus::WARN, last_problem);
   } else if (window_dropped_ > 0) {

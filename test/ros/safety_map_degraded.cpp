@@ -261,8 +261,7 @@ TEST_F(Degraded, StalledTfAgesTheMapAndGapFramesAreNotInterpolated) {
   // Every frame of the gap is accounted for: dropped by the tf filter (its queue is full) or
   // refused as stale; none was lost without a word, none was placed.
   EXPECT_TRUE(waitFor([] { return number("problem: stale tf") >= 1; }, 5.0));
-  EXPECT_TRUE(
-      waitFor([&] { return tfProblems() - tf_problems_before == kGapFrames; }, 5.0))
+  EXPECT_TRUE(waitFor([&] { return tfProblems() - tf_problems_before == kGapFrames; }, 5.0))
       << "missing tf " << number("problem: missing tf") << ", stale tf "
       << number("problem: stale tf") << ", of " << kGapFrames << " frames without tf";
 }

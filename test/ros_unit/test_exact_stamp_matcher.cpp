@@ -2,11 +2,11 @@
 // whatever else arrives meanwhile, with bounded memory and every dropped frame reported.
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 
-#include <boost/make_shared.hpp>
 #include <gtest/gtest.h>
 #include <message_filters/pass_through.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <stereo_msgs/DisparityImage.h>
+#include <boost/make_shared.hpp>
 
 #include <atomic>
 #include <set>
@@ -14,11 +14,13 @@
 
 namespace {
 
-using stereo_msgs::DisparityImage;
 using sensor_msgs::CameraInfo;
+using stereo_msgs::DisparityImage;
 using Matcher = stereo_safety_map::ExactStampMatcher<DisparityImage, CameraInfo, CameraInfo>;
 
-ros::Time stamp(int i) { return ros::Time(1000.0 + 0.1 * i); }
+ros::Time stamp(int i) {
+  return ros::Time(1000.0 + 0.1 * i);
+}
 
 DisparityImage::ConstPtr disparity(int i) {
   auto m = boost::make_shared<DisparityImage>();
@@ -133,7 +135,8 @@ TEST(ExactStampMatcher, ADisparityWithoutItsCameraInfoIsDroppedWithAReason) {
   addFrame(m, 5, "d");
   ASSERT_EQ(rec.dropped.size(), 1u);
   EXPECT_EQ(rec.dropped[0].first, stamp(0));
-  EXPECT_NE(rec.dropped[0].second.find("5 newer frames"), std::string::npos) << rec.dropped[0].second;
+  EXPECT_NE(rec.dropped[0].second.find("5 newer frames"), std::string::npos)
+      << rec.dropped[0].second;
   EXPECT_NE(rec.dropped[0].second.find("has 2 of 3 parts"), std::string::npos)
       << rec.dropped[0].second;
   // The others still complete; the dropped one does not come back with a late CameraInfo.

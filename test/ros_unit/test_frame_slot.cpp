@@ -73,8 +73,7 @@ TEST(FrameSlot, MaxRateDelaysTheNextTakeAndNewerFramesReplaceMeanwhile) {
     slot.put(frame(2));  // arrives while the worker waits for its next start
   });
   const auto f = slot.take(5.0, last_start);  // at most 5 frames / s: not before 200 ms
-  const double waited =
-      std::chrono::duration<double>(Slot::Clock::now() - last_start).count();
+  const double waited = std::chrono::duration<double>(Slot::Clock::now() - last_start).count();
   late.join();
   ASSERT_TRUE(f);
   EXPECT_EQ(f->id, 2);
@@ -93,7 +92,8 @@ TEST(FrameSlot, WorkProcessesFramesAndSurvivesExceptions) {
           processed.push_back(f.id);
           ++done;
         },
-        [] { return 0.0; }, [&](const std::string& what) {
+        [] { return 0.0; },
+        [&](const std::string& what) {
           errors.push_back(what);
           ++done;
         });

@@ -22,9 +22,9 @@
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
+#include "stereo_safety_map/ros/disparity_params.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
-#include "stereo_safety_map/ros/disparity_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>

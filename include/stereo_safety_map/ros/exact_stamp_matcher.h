@@ -74,8 +74,7 @@ class ExactStampMatcher {
 
   /// Adds part I (0: the primary) of the frame stamped `stamp`. `now` is for tests.
   template <std::size_t I>
-  void add(const ros::Time& stamp,
-           const typename std::tuple_element<I, Messages>::type& message,
+  void add(const ros::Time& stamp, const typename std::tuple_element<I, Messages>::type& message,
            Clock::time_point now = Clock::now()) {
     static_assert(I < kParts, "no such part");
     if (!message) return;
@@ -93,7 +92,7 @@ class ExactStampMatcher {
         arrival_.emplace(it->second.id, stamp);
       }
       Partial& p = it->second;
-      std::get<I>(p.parts) = message;  // a second message for the same part replaces the first
+      std::get<I>(p.parts) = message;      // a second message for the same part replaces the first
       if (I == 0 && p.primary_seq == 0) {  // ordered by the primary's arrival: never evicts p
         p.primary_seq = ++primary_seq_;
         waiting_primary_.emplace(p.primary_seq, stamp);
@@ -188,8 +187,8 @@ class ExactStampMatcher {
   }
 
   void expire(Clock::time_point now, std::vector<std::pair<ros::Time, std::string>>* drops) {
-    const auto keep = std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(limits_.keep));
+    const auto keep =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limits_.keep));
     while (!arrival_.empty()) {
       const ros::Time stamp = arrival_.begin()->second;
       const auto it = partial_.find(stamp);
@@ -220,8 +219,8 @@ class ExactStampMatcher {
   const MatchCallback on_match_;
   const DropCallback on_drop_;
   mutable std::mutex mutex_;
-  PartialMap partial_;                              ///< incomplete frames by stamp
-  std::map<std::uint64_t, ros::Time> arrival_;      ///< the same, oldest first
+  PartialMap partial_;                                  ///< incomplete frames by stamp
+  std::map<std::uint64_t, ros::Time> arrival_;          ///< the same, oldest first
   std::map<std::uint64_t, ros::Time> waiting_primary_;  ///< holding their primary, by its arrival
   std::uint64_t next_id_ = 0;
   std::uint64_t primary_seq_ = 0;

@@ -19,9 +19,9 @@
 #include "stereo_safety_map/core/hybrid_safety_map.h"
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/safety_map.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/msgs.h"
+#include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>

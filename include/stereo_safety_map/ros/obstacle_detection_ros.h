@@ -18,10 +18,10 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
+#include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>

@@ -15,10 +15,10 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>
@@ -63,8 +63,8 @@ class Occupancy2DRos {
 
  private:
   using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
-  using FrameMatcher =
-      ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo,
+                                         sensor_msgs::CameraInfo>;
   using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
       stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;

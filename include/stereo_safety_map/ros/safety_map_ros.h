@@ -7,14 +7,15 @@
 // copy); a malformed message is counted and dropped there, so that it never reaches the tf2
 // MessageFilter, the sync or the queue, where it could push a valid message out. The sync
 // (exact_stamp_matcher.h unless approximate_sync: it keeps a frame's parts whatever else arrives,
-// where message_filters' ExactTime let a flood evict them) calls back with the frame; it checks the frame as a whole (camera models, sizes, stamp order) and puts the frame
-// (the message pointers) into a one-slot queue, so callbacks never wait for the pipeline. One
-// worker thread owned by this class takes frames from the slot and runs conversion, the core and
-// publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
-// replaced and counted as dropped: the newest frame wins, processing latency stays one frame, and
-// max_rate throttles by letting the slot be overwritten. A worker (rather than processing in the
-// callback) keeps the tf2 MessageFilter and the sync running on time while a frame is processed,
-// and lets drops be counted in one place.
+// where message_filters' ExactTime let a flood evict them) calls back with the frame; it checks the
+// frame as a whole (camera models, sizes, stamp order) and puts the frame (the message pointers)
+// into a one-slot queue, so callbacks never wait for the pipeline. One worker thread owned by this
+// class takes frames from the slot and runs conversion, the core and publishing. When a frame
+// arrives while another waits in the slot, the waiting (older) frame is replaced and counted as
+// dropped: the newest frame wins, processing latency stays one frame, and max_rate throttles by
+// letting the slot be overwritten. A worker (rather than processing in the callback) keeps the tf2
+// MessageFilter and the sync running on time while a frame is processed, and lets drops be counted
+// in one place.
 //
 // Locks, and what each guards (always taken in this order, never the other way round):
 //   reconfigure_mutex_  dynamic_reconfigure's server (held by it while reconfigureCb runs);
@@ -39,11 +40,11 @@
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -95,8 +96,8 @@ class SafetyMapRos {
  private:
   using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
   using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
-  using FrameMatcher =
-      ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
+  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo,
+                                         sensor_msgs::CameraInfo>;
   using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
       stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;
@@ -196,7 +197,7 @@ class SafetyMapRos {
   std::mutex save_mutex_;
 
   // One-slot queue between the callbacks and the worker.
-  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
+  FrameSlot<Frame> slot_;   ///< callbacks -> worker (frame_slot.h)
   ros::Time newest_stamp_;  ///< of the last frame put into the slot
   std::thread worker_;
   std::atomic<double> max_rate_{0.0};
@@ -240,7 +241,7 @@ class SafetyMapRos {
   ros::WallTime last_arrival_;  ///< last disparity / cloud message received
   ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
-  std::uint64_t non_finite_values_ = 0;               ///< NaN / inf pixels or points skipped
+  std::uint64_t non_finite_values_ = 0;      ///< NaN / inf pixels or points skipped
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
   double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
   double landmark_ms_last_ = 0.0;
