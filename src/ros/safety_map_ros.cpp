@@ -309,7 +309,9 @@ void SafetyMapRos::countArrival() {
 
 void SafetyMapRos::noteArrival(const ros::Time& stamp) {
   std::lock_guard<std::mutex> lock(arrival_mutex_);
-  arrivals_.emplace(stamp, Clock::now());  // a repeated stamp keeps the first arrival
+  // A repeated stamp (a bag played again, whose frame of that stamp was lost in the last loop's
+  // approximate sync) takes the new arrival: an old one would make its frame look stale.
+  arrivals_[stamp] = Clock::now();
   while (arrivals_.size() > kMaxArrivals)
     arrivals_.erase(arrivals_.begin());
 }
