@@ -58,12 +58,6 @@ bool ProblemLog::recent(const ros::WallTime& now) const {
   return !last_time_.isZero() && (now - last_time_).toSec() < kProblemRecent;
 }
 
-std::uint64_t ProblemLog::count(const std::string& reason) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto it = counts_.find(reason);
-  return it == counts_.end() ? 0 : it->second;
-}
-
 std::string tfFilterFailureMessage(const std::string& what, const std_msgs::Header& header,
                                    const std::string& fixed_frame,
                                    tf2_ros::filter_failure_reasons::FilterFailureReason reason,

@@ -48,7 +48,7 @@ class ExactStampMatcher {
   static constexpr std::size_t kParts = 1 + sizeof...(Companions);
 
   struct Limits {
-    double keep = 30.0;                   ///< [s] an incomplete frame is kept this long
+    double keep = kTfCacheTime;           ///< [s] an incomplete frame is kept this long
     std::size_t max_partial = 4096;       ///< incomplete frames kept at most
     std::size_t max_waiting_primary = 5;  ///< incomplete frames holding their primary, at most
 
@@ -125,14 +125,6 @@ class ExactStampMatcher {
   std::size_t size() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return partial_.size();
-  }
-
-  /// Forgets every incomplete frame (e.g. when time jumps back), without a drop report.
-  void clear() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    partial_.clear();
-    arrival_.clear();
-    waiting_primary_.clear();
   }
 
  private:

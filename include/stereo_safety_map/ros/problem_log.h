@@ -47,8 +47,6 @@ class ProblemLog {
   std::string last() const;
   /// Whether the last problem is less than kProblemRecent old at `now`.
   bool recent(const ros::WallTime& now) const;
-  /// How many problems were counted under `reason`.
-  std::uint64_t count(const std::string& reason) const;
 
  private:
   bool shouldLogLocked(const std::string& key, const ros::WallTime& now);
