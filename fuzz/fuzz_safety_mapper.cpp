@@ -1,19 +1,23 @@
 // libFuzzer target: segmentation (000 Alg. 1), plane fit (Sec. V-B) and labelling (Alg. 2) on
-// random height maps, and the whole SafetyMapper on random frames and log-odds.
+// random height maps, and the core's frame path (StereoFrameProcessor::processPoints: the
+// SafetyMapper and the obstacle cue, the entry point the nodelet calls) on random frames, cues and
+// log-odds.
 //
 // Two modes:
 //  - units: a HeightMap with random windows and heights, random robot cell, voxel size, configs
 //    and planes (NaN, inf, huge coefficients, too few, too many), through GroundSegmentation and
 //    SafetyLabelling directly; fitPlane on random points.
-//  - mapper: a small SafetyMapper fed random log-odds (grid().setLogOdds), random frames of
-//    points near stepped ground with special values mixed in, random poses and robot positions,
-//    frame stamps (going back, NaN, huge), aging (max_cell_age, ageSafetyMap) and reconfigure().
+//  - mapper: a small StereoFrameProcessor (obstacle cue on or off) fed random log-odds
+//    (grid().setLogOdds), random frames of points near stepped ground with special values mixed
+//    in, random poses and robot positions, frame stamps (going back, NaN, huge), obstacle cues,
+//    aging (max_cell_age, ageSafetyMap) and reconfigureMapper().
 //
 // Contracts checked: constructors throw std::invalid_argument exactly when validate() is not
 // empty; segments partition their cells, each of one indexed height; the safety map covers the
 // height map's window with one valid label, segment id and drop-off flag per cell; aging only
 // ever turns a Level / Inclined cell into Unknown, and says how many; reconfigure() refuses
-// exactly the configurations validate() refuses and then changes nothing.
+// exactly the configurations validate() refuses and then changes nothing; the cue only ever makes
+// cells Non-ground.
 #include "fuzz_common.h"
 
 #include "stereo_safety_map/core/ground_segmentation.h"
@@ -22,6 +26,7 @@
 #include "stereo_safety_map/core/safety_labelling.h"
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/core/safety_mapper.h"
+#include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/core/voxel_grid.h"
 
 #include <Eigen/Geometry>
@@ -329,7 +334,14 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
                         std::round(c.grid.size_y / c.grid.voxel_size) *
                         std::round(c.grid.size_z / c.grid.voxel_size);
   if (voxels > 2e5) return;  // the harness's budget
-  SafetyMapper mapper(c);
+  StereoFrameProcessorConfig pc;
+  pc.mapper = c;
+  pc.obstacle_cue = fdp.ConsumeBool();
+  pc.cue.lifetime = fdp.ConsumeFloatingPointInRange<double>(0.0, 3.0);
+  pc.cue.min_points_per_cell = fdp.ConsumeIntegralInRange<int>(1, 4);
+  pc.cue.max_cues = fdp.ConsumeIntegralInRange<int>(1, 8);
+  StereoFrameProcessor processor(pc);
+  SafetyMapper& mapper = processor.mapper();
 
   std::vector<Eigen::Vector3f> points;
   Eigen::Vector3f robot(0.0f, 0.0f, 0.0f);
@@ -349,7 +361,7 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
   };
   const int ops = fdp.ConsumeIntegralInRange<int>(1, 8);
   for (int op = 0; op < ops && fdp.remaining_bytes() > 0; ++op) {
-    switch (fdp.ConsumeIntegralInRange<int>(0, 7)) {
+    switch (fdp.ConsumeIntegralInRange<int>(0, 8)) {
       case 0: {  // direct log-odds around the robot
         VoxelGrid& grid = mapper.grid();
         const VoxelIndex m = grid.minIndex();
@@ -368,13 +380,13 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
           p = Eigen::Vector3f(specialFloat(fdp, -2, 2), specialFloat(fdp, -2, 2),
                               specialFloat(fdp, -0.5f, 0.5f));
         }
-        const SafetyMap& map = mapper.computeSafetyMap(p);
+        const SafetyMap& map = processor.recompute(p, clock);
         checkMap(mapper.heightMap(), map);
         checkSegments(mapper.heightMap(), mapper.segments());
         break;
       }
       case 2:
-        mapper.reset();
+        processor.reset();
         break;
       case 3: {  // aging without a frame
         const SafetyMap before = mapper.safetyMap();
@@ -398,7 +410,7 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
         const SafetyMapperConfig old = mapper.config();
         const std::uint32_t frames = mapper.grid().frameCount();
         bool grid_reset = false;
-        const std::string err = mapper.reconfigure(n, &grid_reset);
+        const std::string err = processor.reconfigureMapper(n, &grid_reset);
         FUZZ_CHECK(err.empty() == n.validate().empty());
         if (!err.empty()) {
           FUZZ_CHECK(!grid_reset);
@@ -407,6 +419,18 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
         } else {
           FUZZ_CHECK(grid_reset == (n.grid.decr != old.grid.decr));
         }
+        break;
+      }
+      case 5: {  // an obstacle cue: points near the robot, some special, any stamp
+        std::vector<Eigen::Vector3f> cue;
+        const int n = fdp.ConsumeIntegralInRange<int>(0, 32);
+        for (int i = 0; i < n && fdp.remaining_bytes() > 0; ++i) {
+          cue.emplace_back(robot.x() + specialFloat(fdp, -2, 2),
+                           robot.y() + specialFloat(fdp, -2, 2), specialFloat(fdp, -1, 2));
+        }
+        const double stamp = next_stamp();
+        FUZZ_CHECK(processor.addObstacleCue(stamp, cue) ==
+                   (pc.obstacle_cue && std::isfinite(stamp)));
         break;
       }
       default: {
@@ -445,12 +469,24 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
           }
           points.push_back(T_inv * Eigen::Vector3f(x, y, z));
         }
-        FrameResult result;
+        StereoFrameResult frame;
         const bool stamped = fdp.ConsumeBool();
-        const bool ok = stamped ? mapper.integrateFrame(points, T, robot_arg, next_stamp(), &result)
-                                : mapper.integrateFrame(points, T, robot_arg, &result);
+        const double stamp = stamped ? next_stamp() : StereoFrameProcessor::kNoStamp;
+        std::string error;
+        const bool ok = processor.processPoints(points, T, robot_arg, stamp, &frame, &error);
+        const FrameResult& result = frame.mapper;
         if (!stamped) FUZZ_CHECK(result.cells_aged == 0 || std::isfinite(mapper.latestTime()));
         FUZZ_CHECK(ok == (result.status == FrameStatus::kIntegrated));
+        FUZZ_CHECK(ok || !error.empty());
+        if (ok && frame.cue_applied) {
+          // The cue only makes cells Non-ground.
+          const std::vector<std::uint8_t>& marked = processor.cueMarked();
+          const SafetyMap& map = mapper.safetyMap();
+          FUZZ_CHECK(marked.size() == map.labels.size());
+          for (std::size_t k = 0; k < marked.size(); ++k) {
+            if (marked[k]) FUZZ_CHECK(map.labels[k] == SafetyLabel::kNonGround);
+          }
+        }
         if (ok) {
           checkMap(mapper.heightMap(), mapper.safetyMap());
           checkSegments(mapper.heightMap(), mapper.segments());

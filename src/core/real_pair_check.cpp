@@ -253,7 +253,8 @@ bool checkRealPair(const cv::Mat& left, const cv::Mat& right, const StereoCamera
                                r.T_fixed_camera.translation().y(), 0.0);
     StereoFrameResult fr;
     if (!processor.processDisparity(disparity, camera, r.T_fixed_camera.cast<float>(),
-                                    base.cast<float>(), &fr, &err)) {
+                                    base.cast<float>(), StereoFrameProcessor::kNoStamp, &fr,
+                                    &err)) {
       r.error = "mapper: " + err;
       return false;
     }

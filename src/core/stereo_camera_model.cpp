@@ -42,6 +42,36 @@ std::string StereoCameraModel::validate() const {
 // Z = f B / (d - (cx - cx_right)) (002, Sec. 3.2), X = (x - cx) Z / fx, Y = (y - cy) Z / fy.
 // Invalid inputs (empty or non CV_32FC1 image, invalid model, model size != image size, step < 1)
 // produce no points. Float arithmetic with row constants hoisted; one division per kept pixel.
+DisparityMessageGeometry disparityMessageGeometry(const StereoCameraModel& camera,
+                                                  int min_disparity, int num_disparities) {
+  DisparityMessageGeometry g;
+  g.f = static_cast<float>(camera.fx);
+  g.T = static_cast<float>(camera.baseline);
+  g.offset = static_cast<float>(camera.cx - camera.cx_right);
+  g.min_disparity = static_cast<float>(min_disparity) - g.offset;
+  g.max_disparity = static_cast<float>(min_disparity + num_disparities - 1) - g.offset;
+  return g;
+}
+
+void throughDisparityMessage(const DisparityMessageGeometry& g, cv::Mat* disparity) {
+  if (disparity == nullptr || disparity->type() != CV_32FC1) return;
+  for (int r = 0; r < disparity->rows; ++r) {
+    float* d = disparity->ptr<float>(r);
+    for (int c = 0; c < disparity->cols; ++c)
+      d[c] = g.fromMessage(g.toMessage(d[c]));
+  }
+}
+
+StereoCameraModel messageCameraModel(const DisparityMessageGeometry& g,
+                                     const StereoCameraModel& left) {
+  StereoCameraModel m = left;
+  m.fx = g.f;
+  m.fy = left.fy * g.f / left.fx;  // keeps the aspect ratio if f was rescaled
+  m.cx_right = m.cx;               // the message's disparities have the offset removed
+  m.baseline = g.T;
+  return m;
+}
+
 void reprojectDisparity(const cv::Mat& disparity, const StereoCameraModel& model, double min_depth,
                         double max_depth, int step, std::vector<Eigen::Vector3f>* points) {
   if (points == nullptr) return;

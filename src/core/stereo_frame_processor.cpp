@@ -1,6 +1,7 @@
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 
 #include <chrono>
+#include <cmath>
 #include <sstream>
 #include <stdexcept>
 
@@ -27,12 +28,16 @@ void setError(std::string* error, const std::string& message) {
 }  // namespace
 
 std::string StereoFrameProcessorConfig::validate() const {
-  std::string err = disparity.validate();
+  std::string err = input_check.validate();
+  if (!err.empty()) return "input_check." + err;
+  err = disparity.validate();
   if (!err.empty()) return "disparity." + err;
   err = mapper.validate();
   if (!err.empty()) return "mapper." + err;
   err = landmark_filter.forMapper(mapper).validate();
   if (!err.empty()) return "landmark_filter." + err;
+  err = cue.validate();
+  if (!err.empty()) return "cue." + err;
   if (disparity_step < 1 || disparity_step > 16) {
     std::ostringstream os;
     os << "disparity_step = " << disparity_step << " must be in [1, 16]";
@@ -53,39 +58,88 @@ SafetyMapperConfig singleFrameMapperConfig(const SafetyMapperConfig& base, doubl
 StereoFrameProcessor::StereoFrameProcessor(const StereoFrameProcessorConfig& config)
     : config_(checked(config)),
       pipeline_(config_.disparity),
+      input_check_(config_.input_check),
       mapper_(config_.mapper),
-      landmarks_(config_.landmark_filter.forMapper(config_.mapper)) {}
+      landmarks_(config_.landmark_filter.forMapper(config_.mapper)) {
+  if (config_.obstacle_cue) cue_ = std::make_unique<ObstacleCueFusion>(config_.cue);
+}
+
+void StereoFrameProcessor::reset() {
+  mapper_.reset();
+  input_check_.reset();
+  landmarks_.reset();
+  if (cue_) cue_->clear();
+  cue_marked_.clear();
+  cue_stats_ = ObstacleCueStats();
+}
+
+std::string StereoFrameProcessor::reconfigureMapper(const SafetyMapperConfig& config,
+                                                    bool* grid_reset) {
+  bool new_grid = false;
+  const std::string err = mapper_.reconfigure(config, &new_grid);
+  if (grid_reset != nullptr) *grid_reset = new_grid;
+  if (!err.empty()) return err;
+  config_.mapper = config;
+  if (new_grid) {
+    landmarks_.reset();
+    if (cue_) cue_->clear();
+    cue_marked_.clear();
+  }
+  return "";
+}
+
+bool StereoFrameProcessor::addObstacleCue(double stamp,
+                                          const std::vector<Eigen::Vector3f>& points_fixed) {
+  return cue_ && cue_->addCue(stamp, points_fixed);
+}
 
 bool StereoFrameProcessor::processImages(const cv::Mat& left, const cv::Mat& right,
                                          const StereoCameraModel& camera,
                                          const Eigen::Isometry3f& T_fixed_sensor,
-                                         const Eigen::Vector3f& robot_base_position,
-                                         StereoFrameResult* result, std::string* error,
-                                         double stamp) {
+                                         const Eigen::Vector3f& robot_base_position, double stamp,
+                                         StereoFrameResult* result, std::string* error) {
   StereoFrameResult local;
   StereoFrameResult& r = result != nullptr ? *result : local;
   r = StereoFrameResult();
   const Clock::time_point t0 = Clock::now();
-  const std::string cam_err = camera.validate();
-  if (!cam_err.empty()) {
-    setError(error, "bad camera model: " + cam_err);
+  // disparity() is this frame's or empty, never a previous frame's.
+  auto refuse = [this, error](const std::string& why) {
+    disparity_.release();
+    setError(error, why);
     return false;
-  }
+  };
+  const std::string cam_err = camera.validate();
+  if (!cam_err.empty()) return refuse("bad camera model: " + cam_err);
   if (left.cols != camera.width || left.rows != camera.height) {
     std::ostringstream os;
     os << "image is " << left.cols << " x " << left.rows << ", camera model says " << camera.width
        << " x " << camera.height;
-    setError(error, os.str());
-    return false;
+    return refuse(os.str());
   }
   std::string err;
+  if (config_.check_input && left.type() == CV_8UC1 && right.type() == CV_8UC1) {
+    // The disparity nodelet refuses a covered, black or frozen camera before matching.
+    const StereoInputProblem problem = input_check_.check(left, right, &err);
+    if (problem != StereoInputProblem::kNone) {
+      return refuse(std::string(toString(problem)) + ": " + err);
+    }
+  }
   if (!pipeline_.compute(left, right, &disparity_, &r.disparity, &err)) {
-    setError(error, "disparity: " + err);
-    return false;
+    return refuse("disparity: " + err);
   }
   r.timings.disparity_ms = msSince(t0);
+  const Clock::time_point t1 = Clock::now();
+  // What the safety-map nodelet gets from the disparity nodelet's message: its values and its
+  // camera model (f and T in float32), so that this path and the two nodelets agree bit for bit.
+  const DisparityMessageGeometry g = disparityMessageGeometry(
+      camera, pipeline_.config().min_disparity, pipeline_.config().num_disparities);
+  throughDisparityMessage(g, &disparity_);
+  disparity_camera_ = messageCameraModel(g, camera);
+  reprojectDisparity(disparity_, disparity_camera_, mapper_.config().grid.min_range,
+                     mapper_.config().grid.max_range, config_.disparity_step, &points_);
+  r.timings.reproject_ms = msSince(t1);
   const bool ok =
-      integrate(disparity_, camera, T_fixed_sensor, robot_base_position, stamp, &r, error);
+      integrate(&disparity_camera_, T_fixed_sensor, robot_base_position, stamp, &r, error);
   r.timings.total_ms = msSince(t0);
   return ok;
 }
@@ -94,8 +148,8 @@ bool StereoFrameProcessor::processDisparity(const cv::Mat& disparity,
                                             const StereoCameraModel& camera,
                                             const Eigen::Isometry3f& T_fixed_sensor,
                                             const Eigen::Vector3f& robot_base_position,
-                                            StereoFrameResult* result, std::string* error,
-                                            double stamp) {
+                                            double stamp, StereoFrameResult* result,
+                                            std::string* error) {
   StereoFrameResult local;
   StereoFrameResult& r = result != nullptr ? *result : local;
   r = StereoFrameResult();
@@ -110,31 +164,45 @@ bool StereoFrameProcessor::processDisparity(const cv::Mat& disparity,
     setError(error, "disparity must be CV_32FC1 of the camera model's size");
     return false;
   }
-  disparity_.release();
-  const bool ok =
-      integrate(disparity, camera, T_fixed_sensor, robot_base_position, stamp, &r, error);
+  if (disparity.data != disparity_.data) disparity_.release();
+  // The grid's depth range (000 Sec. IV ignores points outside it anyway).
+  reprojectDisparity(disparity, camera, mapper_.config().grid.min_range,
+                     mapper_.config().grid.max_range, config_.disparity_step, &points_);
+  r.timings.reproject_ms = msSince(t0);
+  const bool ok = integrate(&camera, T_fixed_sensor, robot_base_position, stamp, &r, error);
   r.timings.total_ms = msSince(t0);
   return ok;
 }
 
-bool StereoFrameProcessor::integrate(const cv::Mat& disparity, const StereoCameraModel& camera,
+bool StereoFrameProcessor::processPoints(const std::vector<Eigen::Vector3f>& points_sensor,
+                                         const Eigen::Isometry3f& T_fixed_sensor,
+                                         const Eigen::Vector3f& robot_base_position, double stamp,
+                                         StereoFrameResult* result, std::string* error) {
+  StereoFrameResult local;
+  StereoFrameResult& r = result != nullptr ? *result : local;
+  r = StereoFrameResult();
+  const Clock::time_point t0 = Clock::now();
+  disparity_.release();
+  points_ = points_sensor;  // reused buffer: no allocation once it has grown
+  const bool ok = integrate(nullptr, T_fixed_sensor, robot_base_position, stamp, &r, error);
+  r.timings.total_ms = msSince(t0);
+  return ok;
+}
+
+bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
                                      const Eigen::Isometry3f& T_fixed_sensor,
                                      const Eigen::Vector3f& robot_base_position, double stamp,
                                      StereoFrameResult* r, std::string* error) {
-  const Clock::time_point t0 = Clock::now();
-  // Same reprojection range as the safety-map nodelet: the grid's [min_range, max_range].
-  reprojectDisparity(disparity, camera, config_.mapper.grid.min_range,
-                     config_.mapper.grid.max_range, config_.disparity_step, &points_);
   r->points_reprojected = points_.size();
-  r->timings.reproject_ms = msSince(t0);
   // 001 Sec. 4.2 in front of the grid, on the frames the grid integrates (the filter needs
   // motion: a stationary camera repeats its mismatches).
-  if (config_.landmark_filter.enabled && !points_.empty() &&
+  if (camera != nullptr && config_.landmark_filter.enabled && !points_.empty() &&
       !mapper_.isStationary(T_fixed_sensor)) {
     std::string err;
-    const LandmarkStreamStatus st = landmarks_.apply(camera, T_fixed_sensor, stamp, &points_, &err);
+    const LandmarkStreamStatus st =
+        landmarks_.apply(*camera, T_fixed_sensor, stamp, &points_, &err);
     if (st == LandmarkStreamStatus::kRejected) {
-      setError(error, err);
+      setError(error, "landmark filter: " + err);
       return false;
     }
     if (st == LandmarkStreamStatus::kStationary) {  // not moved since the filter's last frame
@@ -148,10 +216,38 @@ bool StereoFrameProcessor::integrate(const cv::Mat& disparity, const StereoCamer
     r->timings.landmark_cpu_ms = landmarks_.lastCpuMs();
   }
   r->points = points_.size();
-  const bool ok = mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, &r->mapper);
+  const bool ok =
+      mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, stamp, &r->mapper);
   r->timings.mapper = r->mapper.timings;
-  if (!ok) setError(error, toString(r->mapper.status));
-  return ok;
+  if (!ok) {
+    setError(error, toString(r->mapper.status));
+    return false;
+  }
+  applyCue(robot_base_position, stamp, r);
+  return true;
+}
+
+void StereoFrameProcessor::applyCue(const Eigen::Vector3f& robot_base_position, double stamp,
+                                    StereoFrameResult* r) {
+  // Paper 003's cue on the new map, right after 000's labelling (obstacle_cue.h). Points above
+  // the robot's top are overhangs it passes under (000 Sec. V-A).
+  cue_marked_.clear();
+  cue_stats_ = ObstacleCueStats();
+  if (!cue_ || !std::isfinite(stamp) || !robot_base_position.allFinite()) return;
+  const float max_z =
+      robot_base_position.z() + static_cast<float>(mapper_.config().height_map.robot_height);
+  cue_stats_ = cue_->apply(stamp, max_z, &mapper_.mutableSafetyMap(), &cue_marked_);
+  if (r != nullptr) {
+    r->cue = cue_stats_;
+    r->cue_applied = true;
+  }
+}
+
+const SafetyMap& StereoFrameProcessor::recompute(const Eigen::Vector3f& robot_base_position,
+                                                 double stamp) {
+  mapper_.computeSafetyMap(robot_base_position);
+  applyCue(robot_base_position, stamp, nullptr);
+  return mapper_.safetyMap();
 }
 
 }  // namespace stereo_safety_map

@@ -82,6 +82,17 @@ StereoHeadConfig StereoHeadConfig::scaledTo(int new_width, int new_height) const
   return c;
 }
 
+StereoCameraModel stereoCameraModel(const StereoHeadConfig& head) {
+  StereoCameraModel m;
+  m.fx = m.fy = head.fx();
+  m.cx = m.cx_right = head.cx();
+  m.cy = head.cy();
+  m.baseline = head.baseline;
+  m.width = head.width;
+  m.height = head.height;
+  return m;
+}
+
 Eigen::Matrix3d linkToOpticalRotation() {
   Eigen::Matrix3d R;
   R.col(0) = Eigen::Vector3d(0, -1, 0);  // optical x = right = -y of the body

@@ -113,6 +113,23 @@ std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
   return "";
 }
 
+sensor_msgs::CameraInfo toCameraInfo(const StereoCameraModel& model, bool right,
+                                     const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo ci;
+  ci.header = header;
+  ci.width = static_cast<std::uint32_t>(std::max(0, model.width));
+  ci.height = static_cast<std::uint32_t>(std::max(0, model.height));
+  ci.distortion_model = "plumb_bob";
+  ci.D.assign(5, 0.0);
+  const double cx = right ? model.cx_right : model.cx;
+  ci.K = {model.fx, 0.0, cx, 0.0, model.fy, model.cy, 0.0, 0.0, 1.0};
+  ci.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  ci.P = {model.fx, 0.0,      cx,       right ? -model.fx * model.baseline : 0.0,
+          0.0,      model.fy, model.cy, 0.0,
+          0.0,      0.0,      1.0,      0.0};
+  return ci;
+}
+
 std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity,
                                     const sensor_msgs::CameraInfo& left_info,
                                     StereoCameraModel* model) {
@@ -137,15 +154,18 @@ std::string cameraModelForDisparity(const stereo_msgs::DisparityImage& disparity
     return "DisparityImage size " + str(disparity.image.width) + "x" + str(disparity.image.height) +
            " does not match the left CameraInfo (" + str(size.width) + "x" + str(size.height) + ")";
   }
-  StereoCameraModel m;
-  m.fx = disparity.f;
-  m.fy = left.fy() * disparity.f / left.fx();  // keeps the aspect ratio if f was rescaled
-  m.cx = left.cx();
-  m.cy = left.cy();
-  m.cx_right = m.cx;  // d in a DisparityImage already has the cx offset removed: Z = f T / d
-  m.baseline = disparity.T;
-  m.width = size.width;
-  m.height = size.height;
+  StereoCameraModel left_model;
+  left_model.fx = left.fx();
+  left_model.fy = left.fy();
+  left_model.cx = left.cx();
+  left_model.cy = left.cy();
+  left_model.width = size.width;
+  left_model.height = size.height;
+  DisparityMessageGeometry g;
+  g.f = disparity.f;
+  g.T = disparity.T;
+  // The same function the offline path uses (StereoFrameProcessor::processImages).
+  const StereoCameraModel m = messageCameraModel(g, left_model);
   err = m.validate();
   if (!err.empty()) return "camera model for the DisparityImage: " + err;
   *model = m;

@@ -1,7 +1,8 @@
 #include "stereo_safety_map/ros/dataset_reader.h"
 
+#include "stereo_safety_map/ros/conversions.h"
+
 #include <cv_bridge/cv_bridge.h>
-#include <image_geometry/stereo_camera_model.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -165,25 +166,6 @@ std::string loadDataset(const std::string& bag, bool latency_only, Dataset* d) {
 
 // ---------------------------------------------------------------------------------------------
 
-std::string cameraModelOf(const sensor_msgs::CameraInfo& l, const sensor_msgs::CameraInfo& r,
-                          StereoCameraModel* out) {
-  image_geometry::StereoCameraModel m;
-  if (!m.fromCameraInfo(l, r)) return "camera_info pair is not a valid stereo model";
-  StereoCameraModel c;
-  c.fx = m.left().fx();
-  c.fy = m.left().fy();
-  c.cx = m.left().cx();
-  c.cy = m.left().cy();
-  c.cx_right = m.right().cx();
-  c.baseline = m.baseline();
-  c.width = static_cast<int>(l.width);
-  c.height = static_cast<int>(l.height);
-  const std::string e = c.validate();
-  if (!e.empty()) return e;
-  *out = c;
-  return "";
-}
-
 double yawOfOpticalAxis(const Eigen::Isometry3d& T_fixed_sensor) {
   const Eigen::Vector3d z = T_fixed_sensor.linear() * Eigen::Vector3d::UnitZ();
   return std::atan2(z.y(), z.x());
@@ -283,7 +265,7 @@ bool StereoBagReader::next(StereoBagFrame* f) {
       f->error = "no camera_info yet";
       return true;
     }
-    std::string e = cameraModelOf(*left_info_, *right_info_, &f->camera);
+    std::string e = cameraModelFromCameraInfo(*left_info_, *right_info_, &f->camera);
     if (!e.empty()) {
       f->error = "camera model: " + e;
       return true;

@@ -300,15 +300,16 @@ void DisparityRos::publishDisparity(const std_msgs::Header& header) {
   const DisparityPipelineConfig& c = pipeline_.config();
   auto msg = boost::make_shared<stereo_msgs::DisparityImage>();
   msg->header = header;
-  msg->f = static_cast<float>(camera_.fx);
-  msg->T = static_cast<float>(camera_.baseline);
   // DisparityImage's convention: d = x_l - x_r - (cx_l - cx_r), so Z = f T / d; anything below
-  // min_disparity is invalid (stereo_image_proc writes min_disparity - 1 there, as we do).
-  const float offset = static_cast<float>(camera_.cx - camera_.cx_right);
-  msg->min_disparity = static_cast<float>(c.min_disparity) - offset;
-  msg->max_disparity = static_cast<float>(c.min_disparity + c.num_disparities - 1) - offset;
+  // min_disparity is invalid (stereo_image_proc writes min_disparity - 1 there, as we do). The
+  // geometry is the core's definition (stereo_camera_model.h), which the offline path uses too.
+  const DisparityMessageGeometry g =
+      disparityMessageGeometry(camera_, c.min_disparity, c.num_disparities);
+  msg->f = g.f;
+  msg->T = g.T;
+  msg->min_disparity = g.min_disparity;
+  msg->max_disparity = g.max_disparity;
   msg->delta_d = 1.0f / 16.0f;  // OpenCV's matchers: 4 fractional bits
-  const float invalid = msg->min_disparity - 1.0f;
 
   // The window where the matcher can find anything (as stereo_image_proc computes it).
   const int border = c.block_size / 2;
@@ -334,10 +335,8 @@ void DisparityRos::publishDisparity(const std_msgs::Header& header) {
     // std::vector's storage is aligned for any fundamental type.
     float* out =
         reinterpret_cast<float*>(image.data.data() + static_cast<std::size_t>(y) * image.step);
-    for (int x = 0; x < disparity_.cols; ++x) {
-      const float d = in[x] - offset;
-      out[x] = isValidDisparity(in[x]) && d > 0.0f ? d : invalid;
-    }
+    for (int x = 0; x < disparity_.cols; ++x)
+      out[x] = g.toMessage(in[x]);
   }
   disparity_pub_.publish(msg);
 }

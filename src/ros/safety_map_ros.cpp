@@ -124,9 +124,22 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   for (const std::string& p : unknownParameters(pnh_, known)) {
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
-  mapper_ = std::make_unique<SafetyMapper>(mapper_config_);  // validated above: does not throw
-  min_depth_ = mapper_config_.grid.min_range;
-  max_depth_ = mapper_config_.grid.max_range;
+  // The core's frame path (stereo_frame_processor.h), the one the offline evaluators run.
+  StereoFrameProcessorConfig processor_config;
+  processor_config.mapper = mapper_config_;
+  processor_config.disparity_step = ros_config_.disparity_step;
+  processor_config.landmark_filter = landmark_config_;
+  processor_config.obstacle_cue = cue_config_.enabled;
+  processor_config.cue = cue_config_.cue;
+  err = processor_config.validate();  // each part was validated as it was read
+  if (!err.empty()) {
+    config_error_ = "invalid parameter in " + pnh_.getNamespace() + ": " + err;
+    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: "
+                           << config_error_);
+    diagnostics_->force_update();
+    return;
+  }
+  processor_ = std::make_unique<StereoFrameProcessor>(processor_config);  // valid: no throw
   max_rate_ = ros_config_.max_rate;
   max_cell_age_ = mapper_config_.max_cell_age;
 
@@ -136,7 +149,6 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   points_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("occupied_points", 1);
   timings_pub_ = nh_.advertise<StageTimingsMsg>("stage_timings", 10);
   if (landmark_config_.enabled) {
-    landmarks_ = std::make_unique<LandmarkStreamFilter>(landmark_config_);  // validated
     landmarks_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("landmarks", 1);
     if (ros_config_.input == "cloud") {
       ROS_WARN_STREAM(name_ << ": use_landmark_filter needs input: disparity (the filter works "
@@ -477,8 +489,9 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     return;
   }
 
-  // Convert the input into sensor-frame points (worker-owned buffers).
+  // Convert the input (worker-owned buffers) and refuse what the core must not see.
   std::size_t non_finite = 0;
+  std::size_t values = 0;  // pixels or points of the input
   if (frame.disparity) {
     std::string err = cameraModelFromCameraInfo(*frame.left_info, *frame.right_info, &camera_);
     if (err.empty()) err = cameraModelForDisparity(*frame.disparity, *frame.left_info, &camera_);
@@ -493,10 +506,9 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       return;
     }
     non_finite = stats.non_finite;
+    values = stats.pixels;
     if (frozen(frame)) return;
-    reprojectDisparity(disparity_, camera_, min_depth_, max_depth_, ros_config_.disparity_step,
-                       &points_);
-    if (points_.empty()) {
+    if (stats.non_finite + stats.out_of_range >= stats.pixels) {
       std::ostringstream os;
       os << "dropped a disparity frame without a valid pixel (" << stats.non_finite
          << " NaN / inf and " << stats.out_of_range << " outside [min_disparity, max_disparity]"
@@ -512,6 +524,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       return;
     }
     non_finite = stats.non_finite;
+    values = stats.points;
     if (frozen(frame)) return;
     if (points_.empty()) {
       std::ostringstream os;
@@ -526,42 +539,40 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     non_finite_values_ += non_finite;
   }
 
-  FrameResult result;
+  StereoFrameResult result;
+  std::string core_error;
+  bool integrated = false;
   {
     std::lock_guard<std::mutex> lock(core_mutex_);
     if (reset_for_time) {
-      mapper_->reset();
-      if (landmarks_) landmarks_->reset();
+      processor_->reset();
       std::lock_guard<std::mutex> stats_lock(stats_mutex_);
       ++map_resets_;
       problems_.note("time went backwards: map reset");
     }
     last_stamp_ = stamp;
-    // 001 Sec. 4.2: only points confirmed by permanent landmarks reach the grid. The filter
-    // sees the frames the grid integrates (it needs motion, 000 Sec. IV skips stationary ones).
-    if (landmarks_ && frame.disparity && !mapper_->isStationary(T_fixed_sensor)) {
-      const std::size_t before = points_.size();
-      std::string err;
-      const LandmarkStreamStatus st =
-          landmarks_->apply(camera_, T_fixed_sensor, stamp.toSec(), &points_, &err);
-      if (st == LandmarkStreamStatus::kRejected) {
-        reject("landmark filter", "dropped a disparity frame: " + err);
-        return;
-      }
-      if (st == LandmarkStreamStatus::kStationary) {  // the grid would skip it too
-        std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-        ++frames_stationary_;
-        return;
-      }
+    takePendingCues();
+    // The core's one entry point per frame (stereo_frame_processor.h): landmark filter (001 Sec.
+    // 4.2, disparity input only), mapper (000 Sec. IV-VI), obstacle cue (003).
+    if (frame.disparity) {
+      integrated = processor_->processDisparity(disparity_, camera_, T_fixed_sensor, robot_position,
+                                                stamp.toSec(), &result, &core_error);
+    } else {
+      integrated = processor_->processPoints(points_, T_fixed_sensor, robot_position, stamp.toSec(),
+                                             &result, &core_error);
+    }
+    if (result.landmark_filter_ran) {
       {
         std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-        landmark_kept_last_ = before > 0 ? static_cast<double>(points_.size()) / before : 0.0;
-        landmark_ms_last_ = landmarks_->lastMs();
-        landmarks_permanent_ = landmarks_->stats().permanent;
-        if (points_.empty()) ++landmark_frames_empty_;
+        landmark_kept_last_ = result.points_reprojected > 0
+                                  ? static_cast<double>(result.points) / result.points_reprojected
+                                  : 0.0;
+        landmark_ms_last_ = result.timings.landmark_ms;
+        landmarks_permanent_ = result.landmarks.permanent;
+        if (result.points == 0) ++landmark_frames_empty_;
       }
       if (landmarks_pub_.getNumSubscribers() > 0) {
-        landmarks_->permanentLandmarks(&landmark_points_);
+        processor_->landmarkFilter().permanentLandmarks(&landmark_points_);
         auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
         std_msgs::Header h;
         h.stamp = stamp;
@@ -569,28 +580,34 @@ void SafetyMapRos::processFrame(const Frame& frame) {
         pointsToCloud(landmark_points_, h, cloud.get());
         landmarks_pub_.publish(cloud);
       }
-      if (points_.empty()) return;  // no landmark permanent yet: nothing for the grid
     }
-    mapper_->integrateFrame(points_, T_fixed_sensor, robot_position, stamp.toSec(), &result);
     std_msgs::Header header;
     header.stamp = stamp;
     header.frame_id = ros_config_.fixed_frame;
-    if (result.status == FrameStatus::kIntegrated) {
+    const bool stationary = !integrated && result.mapper.status == FrameStatus::kStationary;
+    if (integrated) {
       robot_position_ = robot_position;
-      applyObstacleCue(stamp, robot_position);
       publishOutputs(header, robot_position);
-    } else if (result.status == FrameStatus::kStationary && result.cells_aged > 0) {
+    } else if (stationary && result.mapper.cells_aged > 0) {
       publishMap(header);  // a stationary frame aged the map
     }
+    {
+      std::lock_guard<std::mutex> cue_lock(cue_mutex_);
+      if (integrated) cue_stats_ = processor_->lastCueStats();
+      cues_live_ = processor_->cueCount();
+    }
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-    cells_aged_ = mapper_->cellsAged();
+    cells_aged_ = processor_->mapper().cellsAged();
   }
+  // The landmark filter confirmed no point yet: nothing for the grid, nothing refused.
+  if (result.landmark_filter_ran && result.points == 0) return;
 
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  if (result.status == FrameStatus::kIntegrated || result.status == FrameStatus::kStationary) {
+  const FrameStatus status = integrated ? FrameStatus::kIntegrated : result.mapper.status;
+  if (integrated || status == FrameStatus::kStationary) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     last_used_ = ros::WallTime::now();
-    if (result.status == FrameStatus::kStationary) {
+    if (!integrated) {
       ++frames_stationary_;
     } else {
       ++frames_processed_;
@@ -600,11 +617,18 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     }
     tf_wait_ms_sum_ += frame.tf_wait_ms;
     ++tf_wait_count_;
-    ROS_DEBUG_STREAM_NAMED("frames", name_ << ": frame " << stamp << " " << toString(result.status)
-                                           << " in " << ms << " ms");
+    ROS_DEBUG_STREAM_NAMED(
+        "frames", name_ << ": frame " << stamp << " " << toString(status) << " in " << ms << " ms");
     return;
   }
-  reject("refused by the core", std::string("frame ") + toString(result.status));
+  if (status == FrameStatus::kEmptyInput) {  // nothing within [min_range, max_range]
+    std::ostringstream os;
+    os << "dropped a frame without a point within [min_range, max_range] (" << non_finite
+       << " NaN / inf of " << values << ")";
+    reject(non_finite > 0 ? "non-finite input" : "no valid data", os.str());
+    return;
+  }
+  reject("refused by the core", "frame " + core_error);
 }
 
 bool SafetyMapRos::frozen(const Frame& frame) {
@@ -636,23 +660,25 @@ bool SafetyMapRos::frozen(const Frame& frame) {
 
 void SafetyMapRos::ageTimerCb() {
   const ros::Time now = ros::Time::now();
-  if (!mapper_ || now.isZero()) return;  // sim time without a clock yet: no time passes
+  if (!processor_ || now.isZero()) return;  // sim time without a clock yet: no time passes
   std::lock_guard<std::mutex> lock(core_mutex_);
-  if (mapper_->safetyMap().width <= 0) return;
+  SafetyMapper& mapper = processor_->mapper();
+  if (mapper.safetyMap().width <= 0) return;
   // Frames age the map at their stamps; this ages it while they do not come.
-  if (mapper_->ageSafetyMap(now.toSec()) == 0) return;
+  if (mapper.ageSafetyMap(now.toSec()) == 0) return;
   std_msgs::Header header;
   header.stamp = now;
   header.frame_id = ros_config_.fixed_frame;
   publishMap(header);
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-  cells_aged_ = mapper_->cellsAged();
+  cells_aged_ = mapper.cellsAged();
 }
 
 void SafetyMapRos::publishMap(const std_msgs::Header& header) {
-  const SafetyMap& map = mapper_->safetyMap();
+  const SafetyMapper& mapper = processor_->mapper();
+  const SafetyMap& map = mapper.safetyMap();
   auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
-  toOccupancyGrid(map, mapper_->config().labelling, header, grid.get());
+  toOccupancyGrid(map, mapper.config().labelling, header, grid.get());
   map_pub_.publish(grid);
 
   auto labels = boost::make_shared<SafetyMapMsg>();
@@ -667,16 +693,16 @@ void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
 
   if (markers_pub_.getNumSubscribers() > 0) {
     auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
-    toMarkerArray(*mapper_, header, markers.get());
+    toMarkerArray(processor_->mapper(), header, markers.get());
     markers_pub_.publish(markers);
   }
   if (points_pub_.getNumSubscribers() > 0) {
     auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
-    occupiedPointsToCloud(mapper_->grid(), header, cloud.get());
+    occupiedPointsToCloud(processor_->mapper().grid(), header, cloud.get());
     points_pub_.publish(cloud);
   }
   auto timings = boost::make_shared<StageTimingsMsg>();
-  toStageTimingsMsg(mapper_->lastTimings(), header, timings.get());
+  toStageTimingsMsg(processor_->mapper().lastTimings(), header, timings.get());
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     timings->frames_received = frames_received_;
@@ -689,10 +715,9 @@ void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
 }
 
 bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
-  if (!mapper_) return false;
+  if (!processor_) return false;
   std::lock_guard<std::mutex> lock(core_mutex_);
-  mapper_->reset();
-  if (landmarks_) landmarks_->reset();
+  processor_->reset();
   {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
@@ -703,7 +728,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
 }
 
 bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
-  if (!mapper_) {
+  if (!processor_) {
     res.success = false;
     res.message = "not running: " + config_error_;
     return true;
@@ -722,7 +747,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
   // after it is released, so that the worker does not wait for the disk.
   std::vector<SaveFile> files;
   std::unique_lock<std::mutex> lock(core_mutex_);
-  const SafetyMap& map = mapper_->safetyMap();
+  const SafetyMap& map = processor_->mapper().safetyMap();
   if (map.width <= 0 || map.height <= 0) {
     res.success = false;
     res.message = "no map yet: no frame has been integrated since the start or the last reset";
@@ -732,7 +757,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
   // The 3D model as an OctoMap: occupied voxels occupied, voxels with negative log-odds free.
   // OctoMap's voxels span [k l, (k + 1) l), ours are centred on k l (Eq. (1)): voxel (u, v, w)
   // is stored as OctoMap's voxel (u, v, w), i.e. shifted by l / 2 along each axis.
-  const VoxelGrid& grid = mapper_->grid();
+  const VoxelGrid& grid = processor_->mapper().grid();
   const double l = grid.config().voxel_size;
   {
     octomap::OcTree tree(l);
@@ -835,7 +860,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
 }
 
 void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
-  if (!mapper_) return;
+  if (!processor_) return;
   SafetyMapperConfig c = mapper_config_;
   c.grid.incr_high = config.incr_high;
   c.grid.incr_low = config.incr_low;
@@ -917,7 +942,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
   // be changed in place, so a grid change starts a new map.
   std::lock_guard<std::mutex> lock(core_mutex_);
   bool grid_reset = false;
-  const std::string refused = mapper_->reconfigure(c, &grid_reset);
+  const std::string refused = processor_->reconfigureMapper(c, &grid_reset);
   if (!refused.empty()) {  // validated above: does not happen
     ROS_ERROR_STREAM(name_ << ": reconfiguration refused: " << refused);
     return;
@@ -933,10 +958,12 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
     ++map_resets_;
     cells_aged_ = 0;
   } else {
-    if (mapper_->safetyMap().width > 0) mapper_->computeSafetyMap(robot_position_);
+    if (processor_->mapper().safetyMap().width > 0) {
+      processor_->recompute(robot_position_, last_stamp_.toSec());
+    }
     ROS_INFO_STREAM(name_ << ": reconfigured; the 3D model is kept");
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
-    cells_aged_ = mapper_->cellsAged();
+    cells_aged_ = processor_->mapper().cellsAged();
   }
 }
 
@@ -972,8 +999,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
             frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
   stat.addf("tf wait, mean [ms]", "%.1f",
             tf_wait_count_ > 0 ? tf_wait_ms_sum_ / tf_wait_count_ : 0.0);
-  stat.add("landmark filter (001 Sec. 4.2)", landmarks_ ? "on" : "off");
-  if (landmarks_) {
+  stat.add("landmark filter (001 Sec. 4.2)", landmark_config_.enabled ? "on" : "off");
+  if (landmark_config_.enabled) {
     stat.addf("landmark filter: points kept, last frame [%]", "%.1f", 100.0 * landmark_kept_last_);
     stat.add("landmark filter: permanent landmarks", landmarks_permanent_);
     stat.add("landmark filter: frames without a confirmed point", landmark_frames_empty_);
@@ -1019,11 +1046,6 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
 
 void SafetyMapRos::setUpObstacleCue() {
   if (!cue_config_.enabled) return;
-  {
-    // The worker is running already: it reads obstacle_cue_ under cue_mutex_ as well.
-    std::lock_guard<std::mutex> lock(cue_mutex_);
-    obstacle_cue_ = std::make_unique<ObstacleCueFusion>(cue_config_.cue);  // validated
-  }
   obstacle_cue_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>("obstacles", ros_config_.queue_size,
                                                               &SafetyMapRos::obstacleCueCb, this);
 }
@@ -1054,8 +1076,28 @@ void SafetyMapRos::obstacleCueCb(const sensor_msgs::PointCloud2ConstPtr& cloud) 
       return;
     }
   }
+  const double stamp = cloud->header.stamp.toSec();
+  if (!std::isfinite(stamp)) {
+    obstacleCueProblem("ignored an obstacle cue with a non-finite stamp");
+    return;
+  }
   std::lock_guard<std::mutex> lock(cue_mutex_);
-  if (obstacle_cue_->addCue(cloud->header.stamp.toSec(), points)) ++cues_received_;
+  // The processor keeps at most max_cues cues; more waiting here would be dropped there anyway.
+  while (pending_cues_.size() >= static_cast<std::size_t>(cue_config_.cue.max_cues)) {
+    pending_cues_.pop_front();
+  }
+  pending_cues_.push_back(PendingCue{stamp, std::move(points)});
+  ++cues_received_;
+}
+
+void SafetyMapRos::takePendingCues() {
+  std::deque<PendingCue> cues;
+  {
+    std::lock_guard<std::mutex> lock(cue_mutex_);
+    cues.swap(pending_cues_);
+  }
+  for (const PendingCue& c : cues)
+    processor_->addObstacleCue(c.stamp, c.points);
 }
 
 void SafetyMapRos::obstacleCueProblem(const std::string& detail) {
@@ -1066,18 +1108,9 @@ void SafetyMapRos::obstacleCueProblem(const std::string& detail) {
   problems_.report("obstacle cue", detail);
 }
 
-void SafetyMapRos::applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position) {
-  // Points above the robot's top are overhangs it passes under (000 Sec. V-A).
-  const float max_z =
-      robot_position.z() + static_cast<float>(mapper_config_.height_map.robot_height);
-  std::lock_guard<std::mutex> lock(cue_mutex_);
-  if (!obstacle_cue_) return;
-  cue_stats_ = obstacle_cue_->apply(stamp.toSec(), max_z, &mapper_->mutableSafetyMap());
-}
-
 void SafetyMapRos::diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(cue_mutex_);
-  if (!obstacle_cue_) {
+  if (!cue_config_.enabled) {
     stat.add("obstacle cue", "off");
     return;
   }
@@ -1085,6 +1118,7 @@ void SafetyMapRos::diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapp
   stat.add("obstacle cues received", cues_received_);
   stat.add("obstacle cues refused", cues_refused_);
   stat.add("obstacle cues live, last map", cue_stats_.live_cues);
+  stat.add("obstacle cues held", cues_live_);
   stat.add("cells marked by the obstacle cue, last map", cue_stats_.cells_marked);
   stat.add("cells made Non-ground by the cue, last map", cue_stats_.cells_changed);
 }

@@ -40,6 +40,7 @@
 #include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/dataset/scene_loader.h"
 #include "stereo_safety_map/dataset/trajectory.h"
+#include "stereo_safety_map/ros/conversions.h"
 
 #include <image_geometry/stereo_camera_model.h>
 #include <octomap/OcTree.h>
@@ -577,31 +578,8 @@ struct Frame {
   cv::Mat left, right;
   Eigen::Isometry3f T_fixed_left = Eigen::Isometry3f::Identity();
   Eigen::Vector3f base = Eigen::Vector3f::Zero();
+  double stamp = 0.0;  // [s], the trajectory's time
 };
-
-ssm::StereoCameraModel cameraModelOf(const ds::StereoHeadConfig& h) {
-  ssm::StereoCameraModel m;
-  m.fx = m.fy = h.fx();
-  m.cx = m.cx_right = h.cx();
-  m.cy = h.cy();
-  m.baseline = h.baseline;
-  m.width = h.width;
-  m.height = h.height;
-  return m;
-}
-
-sensor_msgs::CameraInfo cameraInfoOf(const ds::StereoHeadConfig& h, bool right) {
-  sensor_msgs::CameraInfo ci;
-  ci.width = static_cast<std::uint32_t>(h.width);
-  ci.height = static_cast<std::uint32_t>(h.height);
-  ci.distortion_model = "plumb_bob";
-  ci.D = {0.0, 0.0, 0.0, 0.0, 0.0};
-  const double f = h.fx();
-  ci.K = {f, 0.0, h.cx(), 0.0, f, h.cy(), 0.0, 0.0, 1.0};
-  ci.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
-  ci.P = {f, 0.0, h.cx(), right ? -f * h.baseline : 0.0, 0.0, f, h.cy(), 0.0, 0.0, 0.0, 1.0, 0.0};
-  return ci;
-}
 
 std::vector<std::size_t> pickFrames(const std::vector<ds::RobotPose>& poses, int count,
                                     int stride) {
@@ -633,6 +611,7 @@ std::vector<Frame> renderFrames(ds::StereoRenderer& renderer, const ds::SceneFil
     const Eigen::Isometry3d T = ds::basePose(p.x, p.y, sf.trajectory.base_z, p.yaw) * T_base_left;
     renderer.render(T, i, &f.left, &f.right);
     f.T_fixed_left = T.cast<float>();
+    f.stamp = p.t;
     f.base = Eigen::Vector3f(static_cast<float>(p.x), static_cast<float>(p.y),
                              static_cast<float>(sf.trajectory.base_z));
     frames.push_back(f);
@@ -1045,7 +1024,7 @@ int main(int argc, char** argv) {
     }
   }
 
-  const ssm::StereoCameraModel cam = cameraModelOf(head);
+  const ssm::StereoCameraModel cam = ds::stereoCameraModel(head);
   Registry reg;
   std::vector<Comparison> comparisons;
   std::map<std::string, double> extra;  // scalar facts for the JSON / tables
@@ -1081,7 +1060,7 @@ int main(int argc, char** argv) {
       std::string err;
       bool ok = false;
       const Sample s = measure([&] {
-        ok = proc.processImages(f.left, f.right, cam, f.T_fixed_left, f.base, &res, &err);
+        ok = proc.processImages(f.left, f.right, cam, f.T_fixed_left, f.base, f.stamp, &res, &err);
       });
       points_of[k] = proc.points();
       if (!ok) {
@@ -1269,7 +1248,8 @@ int main(int argc, char** argv) {
       auto p = std::make_shared<stereo_image_proc::StereoProcessor>();
       configureSip(p.get(), c, own_filters);
       auto model = std::make_shared<image_geometry::StereoCameraModel>();
-      model->fromCameraInfo(cameraInfoOf(head, false), cameraInfoOf(head, true));
+      model->fromCameraInfo(ssm::toCameraInfo(ds::stereoCameraModel(head), false),
+                            ssm::toCameraInfo(ds::stereoCameraModel(head), true));
       auto msg = std::make_shared<stereo_msgs::DisparityImage>();
       return std::function<void(const Frame&, cv::Mat*)>(
           [p, model, msg, sip_fn](const Frame& f, cv::Mat* out) {
@@ -1384,7 +1364,8 @@ int main(int argc, char** argv) {
   {
     progress("reprojection");
     image_geometry::StereoCameraModel model;
-    model.fromCameraInfo(cameraInfoOf(head, false), cameraInfoOf(head, true));
+    model.fromCameraInfo(ssm::toCameraInfo(ds::stereoCameraModel(head), false),
+                         ssm::toCameraInfo(ds::stereoCameraModel(head), true));
     std::vector<Eigen::Vector3f> pts;
     cv::Mat xyz;
     Series& a = reg.get("reproject.ours", "reprojection 640x480",
@@ -1503,7 +1484,7 @@ int main(int argc, char** argv) {
       sp.label += ", " + std::to_string(c.disparity.num_disparities) + " disp.";
       try {
         ssm::StereoFrameProcessor proc(c);
-        const ssm::StereoCameraModel m = cameraModelOf(sz.head);
+        const ssm::StereoCameraModel m = ds::stereoCameraModel(sz.head);
         std::map<std::string, std::vector<double>> w;
         std::vector<double> cpu, pts, mallocs;
         for (std::size_t k = 0; k < sz.frames.size(); ++k) {
@@ -1512,7 +1493,8 @@ int main(int argc, char** argv) {
           std::string err;
           bool ok = false;
           const Sample s = measure([&] {
-            ok = proc.processImages(f.left, f.right, m, f.T_fixed_left, f.base, &res, &err);
+            ok =
+                proc.processImages(f.left, f.right, m, f.T_fixed_left, f.base, f.stamp, &res, &err);
           });
           if (k == 0 || !ok) continue;  // first frame: warm-up
           const ssm::StageTimings& st = res.timings.mapper;

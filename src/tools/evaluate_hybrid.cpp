@@ -567,7 +567,7 @@ std::string runFusion(const std::string& bag, const ssm::StereoFrameProcessorCon
     ssm::StereoFrameResult res;
     std::string err;
     if (!proc.processImages(f.left, f.right, f.camera, f.T_fixed_sensor.cast<float>(),
-                            f.robot.cast<float>(), &res, &err, f.stamp.toSec())) {
+                            f.robot.cast<float>(), f.stamp.toSec(), &res, &err)) {
       continue;
     }
     ++r->integrated;
@@ -677,7 +677,7 @@ std::string runLandmarks(const std::string& bag, const ssm::StereoFrameProcessor
     ssm::StereoFrameResult res;
     std::string err;
     const Clock::time_point t0 = Clock::now();
-    const bool ok_off = off.processImages(f.left, f.right, f.camera, T, robot, &res, &err, stamp);
+    const bool ok_off = off.processImages(f.left, f.right, f.camera, T, robot, stamp, &res, &err);
     if (off.disparity().empty()) continue;  // bad pair: neither run sees it
     const double disparity_ms = res.timings.disparity_ms;
     const cv::Mat dmap = depth.at(f.stamp);
@@ -695,7 +695,7 @@ std::string runLandmarks(const std::string& bag, const ssm::StereoFrameProcessor
     const Clock::time_point t1 = Clock::now();
     ssm::StereoFrameResult res_on;
     const bool ok_on =
-        on.processDisparity(off.disparity(), f.camera, T, robot, &res_on, &err, stamp);
+        on.processDisparity(off.disparity(), off.disparityCamera(), T, robot, stamp, &res_on, &err);
     LandmarkRun& run = r->on;
     if (res_on.landmark_filter_ran) {
       run.landmark_ms.push_back(res_on.timings.landmark_ms);

@@ -442,8 +442,9 @@ std::string evaluateBag(const std::string& bag, bool latency_only, const Options
     const Eigen::Isometry3f T = frame.T_fixed_sensor.cast<float>();
     ssm::StereoFrameResult fr;
     std::string err;
-    const bool integrated = processor.processImages(frame.left, frame.right, frame.camera, T,
-                                                    frame.robot.cast<float>(), &fr, &err);
+    const bool integrated =
+        processor.processImages(frame.left, frame.right, frame.camera, T, frame.robot.cast<float>(),
+                                frame.stamp.toSec(), &fr, &err);
     const cv::Mat& disp = processor.disparity();
     if (disp.empty()) {
       ++res->rejected;

@@ -485,7 +485,8 @@ std::string evaluateDataset(const Options& opt, const Setup& setup, const std::s
     if (safety) {
       const auto s0 = Clock::now();
       ssm::StereoFrameResult fr;
-      safety_integrated = safety->processDisparity(spiked, frame.camera, T, robot, &fr, &err);
+      safety_integrated =
+          safety->processDisparity(spiked, frame.camera, T, robot, frame.stamp.toSec(), &fr, &err);
       res->safety_ms.push_back(
           std::chrono::duration<double, std::milli>(Clock::now() - s0).count());
       if (safety_integrated && kind != Kind::kLatency) {

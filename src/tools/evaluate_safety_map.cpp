@@ -679,7 +679,7 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
         bool ok;
         if (i == 0) {
           ok = s.processor->processImages(left, right, cam, T_fixed_sensor.cast<float>(),
-                                          robot.cast<float>(), &fr, &err);
+                                          robot.cast<float>(), stamp.toSec(), &fr, &err);
         } else {
           // Same disparity image as the first mapper: only the grid's sensor model differs.
           const cv::Mat& disp = slots[0].processor->disparity();
@@ -687,8 +687,9 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
             ok = false;
             err = "no disparity";
           } else {
-            ok = s.processor->processDisparity(disp, cam, T_fixed_sensor.cast<float>(),
-                                               robot.cast<float>(), &fr, &err);
+            ok = s.processor->processDisparity(disp, slots[0].processor->disparityCamera(),
+                                               T_fixed_sensor.cast<float>(), robot.cast<float>(),
+                                               stamp.toSec(), &fr, &err);
           }
         }
         FrameRecord rec;

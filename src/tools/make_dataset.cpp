@@ -26,6 +26,7 @@
 #include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/dataset/scene_loader.h"
 #include "stereo_safety_map/dataset/trajectory.h"
+#include "stereo_safety_map/ros/conversions.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -56,6 +57,7 @@
 #include <vector>
 
 namespace ds = stereo_safety_map::dataset;
+namespace ssm = stereo_safety_map;
 using stereo_safety_map::SafetyLabel;
 
 namespace {
@@ -195,20 +197,6 @@ boost::shared_ptr<ros::M_string> latched(const M&) {
 template <class M>
 void writeLatched(rosbag::Bag* bag, const std::string& topic, const ros::Time& t, const M& msg) {
   bag->write(topic, t, msg, latched(msg));
-}
-
-sensor_msgs::CameraInfo cameraInfo(const ds::StereoHeadConfig& c, bool right) {
-  sensor_msgs::CameraInfo ci;
-  ci.header.frame_id = kOptical;
-  ci.width = c.width;
-  ci.height = c.height;
-  ci.distortion_model = "plumb_bob";
-  ci.D.assign(5, 0.0);
-  const double f = c.fx();
-  ci.K = {f, 0, c.cx(), 0, f, c.cy(), 0, 0, 1};
-  ci.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  ci.P = {f, 0, c.cx(), right ? -f * c.baseline : 0.0, 0, f, c.cy(), 0, 0, 0, 1, 0};
-  return ci;
 }
 
 void fillImage(const cv::Mat& img, const std::string& encoding, sensor_msgs::Image* msg) {
@@ -504,7 +492,12 @@ int runOne(const std::string& path, const std::string& variant, const Options& o
     writeLatched(&bag, "/ground_truth/planes", t0, planeMarkers(planes));
 
     const std::string enc = head.colour ? "bgr8" : "mono8";
-    sensor_msgs::CameraInfo info_l = cameraInfo(head, false), info_r = cameraInfo(head, true);
+    std_msgs::Header info_header;
+    info_header.frame_id = kOptical;
+    sensor_msgs::CameraInfo info_l =
+        ssm::toCameraInfo(ds::stereoCameraModel(head), false, info_header);
+    sensor_msgs::CameraInfo info_r =
+        ssm::toCameraInfo(ds::stereoCameraModel(head), true, info_header);
     sensor_msgs::Image img_l, img_r, img_d;
     sensor_msgs::LaserScan scan;
     scan.header.frame_id = kLaser;

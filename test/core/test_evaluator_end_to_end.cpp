@@ -104,13 +104,7 @@ void runEndToEnd(const StereoFrameProcessorConfig& config, E2EResult* out) {
   const std::vector<ReferencePlane> refs = toReferencePlanes(ds::groundTruthPlanes(scene, gt_map));
   ASSERT_GE(refs.size(), 2u);
 
-  StereoCameraModel camera;
-  camera.fx = camera.fy = head.fx();
-  camera.cx = camera.cx_right = head.cx();
-  camera.cy = head.cy();
-  camera.baseline = head.baseline;
-  camera.width = head.width;
-  camera.height = head.height;
+  const StereoCameraModel camera = ds::stereoCameraModel(head);
 
   StereoFrameProcessor processor(config);
   const Eigen::Isometry3d T_base_optical = head.baseToLeftOptical();
@@ -136,7 +130,7 @@ void runEndToEnd(const StereoFrameProcessorConfig& config, E2EResult* out) {
     std::string error;
     const bool ok =
         processor.processImages(left, right, camera, (T_base * T_base_optical).cast<float>(),
-                                Eigen::Vector3f(xs[k], 0.0f, 0.0f), &result, &error);
+                                Eigen::Vector3f(xs[k], 0.0f, 0.0f), 0.1 * k, &result, &error);
     if (!ok) {
       ASSERT_EQ(result.mapper.status, FrameStatus::kStationary) << error;
       ++stationary;

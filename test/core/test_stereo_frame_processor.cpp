@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -15,6 +16,7 @@ namespace stereo_safety_map {
 namespace {
 
 namespace ds = dataset;
+constexpr double kNoStamp = StereoFrameProcessor::kNoStamp;
 
 ds::StereoHeadConfig smallHead() {
   ds::StereoHeadConfig h;
@@ -24,14 +26,7 @@ ds::StereoHeadConfig smallHead() {
 }
 
 StereoCameraModel cameraOf(const ds::StereoHeadConfig& h) {
-  StereoCameraModel c;
-  c.fx = c.fy = h.fx();
-  c.cx = c.cx_right = h.cx();
-  c.cy = h.cy();
-  c.baseline = h.baseline;
-  c.width = h.width;
-  c.height = h.height;
-  return c;
+  return ds::stereoCameraModel(h);
 }
 
 ds::Scene floorWithBox() {
@@ -109,7 +104,8 @@ TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationar
   const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
   StereoFrameResult r;
   std::string err;
-  ASSERT_TRUE(p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err))
+  ASSERT_TRUE(
+      p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err))
       << err;
   EXPECT_EQ(r.mapper.status, FrameStatus::kIntegrated);
   EXPECT_GT(r.points, 10000u);
@@ -125,7 +121,8 @@ TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationar
 
   // The same pose again: stationary, refused, map kept.
   const std::size_t cells = s.cells.size();
-  EXPECT_FALSE(p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_FALSE(p.processDisparity(disparity, cameraOf(head), T, Eigen::Vector3f::Zero(), kNoStamp,
+                                  &r, &err));
   EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
   EXPECT_NE(err.find("stationary"), std::string::npos);
   EXPECT_EQ(p.mapper().safetyMap().segments[map.robot_segment].cells.size(), cells);
@@ -158,8 +155,8 @@ TEST(StereoFrameProcessor, LandmarkFilterKeepsOneFrameGhostsFromTheGrid) {
       const Eigen::Isometry3f T = (base * head.baseToLeftOptical()).cast<float>();
       StereoFrameResult r;
       std::string err;
-      const bool ok = p.processDisparity(d, cam, T, base.translation().cast<float>(), &r, &err,
-                                         1000.0 + 0.1 * k);
+      const bool ok = p.processDisparity(d, cam, T, base.translation().cast<float>(),
+                                         1000.0 + 0.1 * k, &r, &err);
       EXPECT_EQ(r.landmark_filter_ran, filter);
       if (filter && k < c.landmark_filter.filter.min_matches) {
         // No landmark is permanent yet: nothing reaches the grid.
@@ -201,13 +198,13 @@ TEST(StereoFrameProcessor, LandmarkFilterSkipsStationaryFramesAndNeedsAStamp) {
   const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
   StereoFrameResult r;
   std::string err;
-  EXPECT_FALSE(
-      p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err));  // no stamp
+  EXPECT_FALSE(p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), kNoStamp, &r,
+                                  &err));  // no stamp
   EXPECT_NE(err.find("stamp"), std::string::npos) << err;
   // Standing still before the first map: only the first frame reaches the filter, the others
   // are stationary (they would confirm each other's points).
   for (int k = 0; k < 4; ++k) {
-    p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), &r, &err, -1.0 + 0.1 * k);
+    p.processDisparity(floor, cameraOf(head), T, Eigen::Vector3f::Zero(), -1.0 + 0.1 * k, &r, &err);
     EXPECT_EQ(r.landmark_filter_ran, k == 0) << k;
     if (k > 0) {
       EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
@@ -219,8 +216,8 @@ TEST(StereoFrameProcessor, LandmarkFilterSkipsStationaryFramesAndNeedsAStamp) {
   for (int k = 0; k < 4; ++k) {
     Eigen::Isometry3f moved = T;
     moved.translation().x() += 0.05f * k;
-    p.processDisparity(floor, cameraOf(head), moved, Eigen::Vector3f(0.05f * k, 0.f, 0.f), &r, &err,
-                       0.1 * k);
+    p.processDisparity(floor, cameraOf(head), moved, Eigen::Vector3f(0.05f * k, 0.f, 0.f), 0.1 * k,
+                       &r, &err);
   }
   ASSERT_EQ(r.mapper.status, FrameStatus::kIntegrated) << err;
   const std::size_t permanent = p.landmarkFilter().stats().permanent;
@@ -229,7 +226,7 @@ TEST(StereoFrameProcessor, LandmarkFilterSkipsStationaryFramesAndNeedsAStamp) {
   Eigen::Isometry3f still = T;
   still.translation().x() += 0.15f;
   EXPECT_FALSE(p.processDisparity(floor, cameraOf(head), still, Eigen::Vector3f(0.15f, 0.f, 0.f),
-                                  &r, &err, 0.5));
+                                  0.5, &r, &err));
   EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
   EXPECT_FALSE(r.landmark_filter_ran);
   EXPECT_EQ(p.landmarkFilter().stats().permanent, permanent);
@@ -254,8 +251,9 @@ TEST(StereoFrameProcessor, ImagesAndTheirDisparityGiveTheSameMap) {
     renderer.render(T_base * head.baseToLeftOptical(), k, &left, &right);
     StereoFrameResult ri, rd;
     std::string err;
-    ASSERT_TRUE(from_images.processImages(left, right, cam, T, robot, &ri, &err)) << err;
-    ASSERT_TRUE(from_disparity.processDisparity(from_images.disparity(), cam, T, robot, &rd, &err))
+    ASSERT_TRUE(from_images.processImages(left, right, cam, T, robot, 0.1 * k, &ri, &err)) << err;
+    ASSERT_TRUE(from_disparity.processDisparity(
+        from_images.disparity(), from_images.disparityCamera(), T, robot, 0.1 * k, &rd, &err))
         << err;
     EXPECT_EQ(ri.points, rd.points);
     EXPECT_GT(ri.disparity.valid, 0);
@@ -272,6 +270,115 @@ TEST(StereoFrameProcessor, ImagesAndTheirDisparityGiveTheSameMap) {
   EXPECT_GT(non_ground_near_box, 5);
 }
 
+TEST(StereoFrameProcessor, PointsAndDisparityGoThroughTheSameMapper) {
+  // The cloud input (processPoints) and the disparity input give the same map from the same
+  // points: one frame path whatever the sensor.
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat disparity = floorDisparity(head);
+  const StereoCameraModel cam = cameraOf(head);
+  StereoFrameProcessor from_disparity, from_points;
+  std::string err;
+  for (int k = 0; k < 12; ++k) {
+    const Eigen::Isometry3d T_base = ds::basePose(0.05 * k, 0.0, 0.0, 0.0);
+    const Eigen::Isometry3f T = (T_base * head.baseToLeftOptical()).cast<float>();
+    const Eigen::Vector3f robot(0.05f * k, 0.0f, 0.0f);
+    StereoFrameResult rd, rp;
+    ASSERT_TRUE(from_disparity.processDisparity(disparity, cam, T, robot, 0.1 * k, &rd, &err))
+        << err;
+    const std::vector<Eigen::Vector3f> points = from_disparity.points();
+    ASSERT_TRUE(from_points.processPoints(points, T, robot, 0.1 * k, &rp, &err)) << err;
+    EXPECT_EQ(rp.points, rd.points);
+    EXPECT_FALSE(rp.landmark_filter_ran);
+  }
+  EXPECT_EQ(from_points.mapper().safetyMap().labels, from_disparity.mapper().safetyMap().labels);
+  EXPECT_GT(from_points.mapper().safetyMap().labels.size(), 0u);
+}
+
+TEST(StereoFrameProcessor, StampsAgeTheMap) {
+  // The stamp reaches the mapper: a map not re-observed for max_cell_age falls back to Unknown
+  // (the nodelet's behaviour, now the offline evaluators' too).
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat disparity = floorDisparity(head);
+  const StereoCameraModel cam = cameraOf(head);
+  StereoFrameProcessorConfig c;
+  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
+  c.mapper.max_cell_age = 1.0;
+  StereoFrameProcessor p(c);
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  StereoFrameResult r;
+  std::string err;
+  ASSERT_TRUE(p.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(), 10.0, &r, &err))
+      << err;
+  EXPECT_EQ(p.mapper().cellsAged(), 0u);
+  EXPECT_DOUBLE_EQ(p.mapper().latestTime(), 10.0);
+  // 2 s later without a frame: every safe cell is older than max_cell_age.
+  const std::size_t safe = std::count_if(p.mapper().safetyMap().labels.begin(),
+                                         p.mapper().safetyMap().labels.end(), isSafe);
+  ASSERT_GT(safe, 100u);
+  EXPECT_EQ(p.mapper().ageSafetyMap(12.0), safe);
+  // Without a stamp the frame is not aged.
+  StereoFrameProcessor q(c);
+  ASSERT_TRUE(q.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(),
+                                 StereoFrameProcessor::kNoStamp, &r, &err));
+  EXPECT_TRUE(std::isnan(q.mapper().latestTime()));
+}
+
+TEST(StereoFrameProcessor, ObstacleCueIsAnOptionalStageThatOnlyAddsNonGround) {
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat disparity = floorDisparity(head);
+  const StereoCameraModel cam = cameraOf(head);
+  StereoFrameProcessorConfig c;
+  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
+  c.mapper.skip_stationary_frames = false;
+  StereoFrameProcessor off(c);
+  EXPECT_FALSE(off.addObstacleCue(1.0, {Eigen::Vector3f(2.0f, 0.0f, 0.3f)}));
+  c.obstacle_cue = true;
+  c.cue.lifetime = 1.0;
+  c.cue.min_points_per_cell = 1;
+  StereoFrameProcessor on(c);
+  EXPECT_FALSE(on.addObstacleCue(StereoFrameProcessor::kNoStamp, {}));
+  // A cue on floor cells 2 m ahead: Non-ground in the next map, the rest untouched.
+  const std::vector<Eigen::Vector3f> cue = {Eigen::Vector3f(2.0f, 0.0f, 0.3f),
+                                            Eigen::Vector3f(2.0f, 0.1f, 0.3f)};
+  EXPECT_TRUE(on.addObstacleCue(10.0, cue));
+  EXPECT_EQ(on.cueCount(), 1);
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  StereoFrameResult r_off, r_on;
+  std::string err;
+  ASSERT_TRUE(off.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(), 10.2, &r_off, &err));
+  ASSERT_TRUE(on.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(), 10.2, &r_on, &err));
+  EXPECT_FALSE(r_off.cue_applied);
+  ASSERT_TRUE(r_on.cue_applied);
+  EXPECT_EQ(r_on.cue.cells_marked, 2u);
+  const SafetyMap& plain = off.mapper().safetyMap();
+  const SafetyMap& fused = on.mapper().safetyMap();
+  ASSERT_EQ(plain.labels.size(), fused.labels.size());
+  ASSERT_EQ(on.cueMarked().size(), fused.labels.size());
+  ASSERT_EQ(plain.labelAt(20, 0), SafetyLabel::kLevel);
+  EXPECT_EQ(fused.labelAt(20, 0), SafetyLabel::kNonGround);
+  EXPECT_EQ(fused.labelAt(20, 1), SafetyLabel::kNonGround);
+  int changed = 0;
+  for (std::size_t k = 0; k < plain.labels.size(); ++k) {
+    if (plain.labels[k] == fused.labels[k]) continue;
+    ++changed;
+    EXPECT_EQ(fused.labels[k], SafetyLabel::kNonGround);
+    EXPECT_EQ(on.cueMarked()[k], 1);
+  }
+  EXPECT_EQ(changed, 2);
+  // recompute() (a stage reconfigured) applies the live cue again.
+  on.recompute(Eigen::Vector3f::Zero(), 10.3);
+  EXPECT_EQ(on.mapper().safetyMap().labelAt(20, 0), SafetyLabel::kNonGround);
+  // Past its lifetime the cue is gone: the map is 000's again.
+  ASSERT_TRUE(on.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(), 11.5, &r_on, &err));
+  ASSERT_TRUE(off.processDisparity(disparity, cam, T, Eigen::Vector3f::Zero(), 11.5, &r_off, &err));
+  EXPECT_EQ(on.mapper().safetyMap().labels, off.mapper().safetyMap().labels);
+  EXPECT_EQ(on.cueCount(), 0);
+  // reset() forgets the cues.
+  EXPECT_TRUE(on.addObstacleCue(12.0, cue));
+  on.reset();
+  EXPECT_EQ(on.cueCount(), 0);
+}
+
 TEST(StereoFrameProcessor, BadInputIsRefusedWithAReason) {
   const ds::StereoHeadConfig head = smallHead();
   StereoFrameProcessor p;
@@ -282,24 +389,38 @@ TEST(StereoFrameProcessor, BadInputIsRefusedWithAReason) {
   std::string err;
   StereoCameraModel bad = cam;
   bad.fx = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(p.processImages(img, img, bad, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_FALSE(p.processImages(img, img, bad, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
   EXPECT_NE(err.find("camera"), std::string::npos);
   const cv::Mat small(10, 10, CV_8UC1, cv::Scalar(1));
-  EXPECT_FALSE(p.processImages(small, small, cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_FALSE(p.processImages(small, small, cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
   EXPECT_NE(err.find("image"), std::string::npos);
-  EXPECT_FALSE(p.processImages(img, cv::Mat(), cam, T, Eigen::Vector3f::Zero(), &r, &err));
-  EXPECT_NE(err.find("disparity"), std::string::npos);
-  EXPECT_FALSE(p.processDisparity(cv::Mat(), cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  // The disparity nodelet's input check refuses a missing image and a pair without contrast
+  // (a covered or black camera) before matching.
+  EXPECT_FALSE(
+      p.processImages(img, cv::Mat(), cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
+  EXPECT_NE(err.find("image"), std::string::npos) << err;
+  EXPECT_FALSE(p.processImages(img, img, cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
+  EXPECT_NE(err.find("contrast"), std::string::npos) << err;
+  EXPECT_FALSE(p.processDisparity(cv::Mat(), cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
   const cv::Mat wrong_type(head.height, head.width, CV_8UC1, cv::Scalar(5));
-  EXPECT_FALSE(p.processDisparity(wrong_type, cam, T, Eigen::Vector3f::Zero(), &r, nullptr));
-  // A textureless pair gives no points: the mapper refuses the empty frame.
-  EXPECT_FALSE(p.processImages(img, img, cam, T, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_FALSE(
+      p.processDisparity(wrong_type, cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, nullptr));
+  // Without the check, the matcher refuses a missing image and a textureless pair gives no
+  // points: the mapper refuses the empty frame.
+  StereoFrameProcessorConfig unchecked;
+  unchecked.check_input = false;
+  StereoFrameProcessor q(unchecked);
+  EXPECT_FALSE(
+      q.processImages(img, cv::Mat(), cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
+  EXPECT_NE(err.find("disparity"), std::string::npos);
+  EXPECT_FALSE(q.processImages(img, img, cam, T, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
   EXPECT_EQ(r.mapper.status, FrameStatus::kEmptyInput);
   // Non-finite pose.
   Eigen::Isometry3f nan_pose = T;
   nan_pose.translation().x() = std::numeric_limits<float>::quiet_NaN();
   const cv::Mat disparity = floorDisparity(head);
-  EXPECT_FALSE(p.processDisparity(disparity, cam, nan_pose, Eigen::Vector3f::Zero(), &r, &err));
+  EXPECT_FALSE(
+      p.processDisparity(disparity, cam, nan_pose, Eigen::Vector3f::Zero(), kNoStamp, &r, &err));
   EXPECT_EQ(r.mapper.status, FrameStatus::kInvalidPose);
   EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
 }

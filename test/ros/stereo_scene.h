@@ -11,6 +11,9 @@
 // surface that no larger surface supports, i.e. what 002 Sec. 4.2 calls a spike.
 #pragma once
 
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/conversions.h"
+
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -198,17 +201,19 @@ inline bool inPatch(int u, int v, int margin) {
          v < kPatchV0 + kPatchSize + margin;
 }
 
+inline stereo_safety_map::StereoCameraModel cameraModel() {
+  stereo_safety_map::StereoCameraModel m;
+  m.fx = m.fy = kF;
+  m.cx = m.cx_right = kCx;
+  m.cy = kCy;
+  m.baseline = kBaseline;
+  m.width = kWidth;
+  m.height = kHeight;
+  return m;
+}
+
 inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  sensor_msgs::CameraInfo info;
-  info.header = header;
-  info.width = kWidth;
-  info.height = kHeight;
-  info.distortion_model = "plumb_bob";
-  info.D.assign(5, 0.0);
-  info.K = {kF, 0, kCx, 0, kF, kCy, 0, 0, 1};
-  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {kF, 0, kCx, right ? -kF * kBaseline : 0.0, 0, kF, kCy, 0, 0, 0, 1, 0};
-  return info;
+  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
 }
 
 inline sensor_msgs::Image imageMsg(const std::vector<std::uint8_t>& pixels,

@@ -4,6 +4,9 @@
 // by ray casting, and publishes the static tf odom -> base_link -> camera.
 #pragma once
 
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/conversions.h"
+
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -90,17 +93,19 @@ inline double depthAt(const Eigen::Isometry3d& T_odom_camera, double u, double v
   return best <= kMaxDepth ? best : std::numeric_limits<double>::quiet_NaN();
 }
 
+inline stereo_safety_map::StereoCameraModel cameraModel() {
+  stereo_safety_map::StereoCameraModel m;
+  m.fx = m.fy = kF;
+  m.cx = m.cx_right = kCx;
+  m.cy = kCy;
+  m.baseline = kBaseline;
+  m.width = kWidth;
+  m.height = kHeight;
+  return m;
+}
+
 inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  sensor_msgs::CameraInfo info;
-  info.header = header;
-  info.width = kWidth;
-  info.height = kHeight;
-  info.distortion_model = "plumb_bob";
-  info.D.assign(5, 0.0);
-  info.K = {kF, 0, kCx, 0, kF, kCy, 0, 0, 1};
-  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {kF, 0, kCx, right ? -kF * kBaseline : 0.0, 0, kF, kCy, 0, 0, 0, 1, 0};
-  return info;
+  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
 }
 
 /// Invalid pixels are -1 (below min_disparity = 0.5), as stereo_image_proc marks them.

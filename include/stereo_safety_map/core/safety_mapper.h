@@ -59,6 +59,12 @@ struct SafetyMapperConfig {
   std::string validate() const;
 };
 
+/// Paper 000 as published: `config` with every switch marked "(ours)" set to the paper's rule
+/// (islands, gaps between segments, the measured step test, the drop-off margin, the plane fit's
+/// vertical margin, the grid's look-ahead, cell aging, and the safe-by-default rules of the
+/// open-world work), everything else kept. The open-world evaluation's "paper-faithful" row.
+SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config);
+
 /// Wall-clock time of each stage of the last processed frame [ms].
 struct StageTimings {
   double integrate_ms = 0.0;

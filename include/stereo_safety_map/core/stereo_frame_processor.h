@@ -1,37 +1,58 @@
-// One stereo frame through the whole core pipeline of paper 000, ROS-free: rectified pair ->
-// disparity and its post-filters (Sec. III, disparity_pipeline.h) -> 3D points in the camera
-// frame (stereo_camera_model.h) -> voxel grid update, segmentation, plane fit and labelling
-// (Sec. IV-VI, safety_mapper.h).
+// The one core entry point per frame of the safety map, ROS-free: every frame, whether it arrives
+// on a topic (the safety-map nodelet), is read from a bag (the offline evaluators), rendered in
+// memory (the open-world evaluation, the bench) or made up by a fuzzer, goes through this class,
+// so that the offline numbers are the nodelet's numbers by construction.
 //
-// Optionally, paper 001's landmark filter (Sec. 4.2, landmark_filter.h) sits between the
-// reprojection and the voxel grid: with `landmark_filter.enabled` only points confirmed by a
-// permanent landmark reach the grid. It runs on the frames the grid integrates (not on stationary
-// ones) and needs each frame's stamp.
+//   processImages():    rectified pair -> the disparity nodelet's input check (covered, black,
+//                       frozen camera; stereo_input_check.h) -> disparity and its post-filters
+//                       (000 Sec. III, 002 Sec. 2.2 / 4.2, disparity_pipeline.h) -> the
+//                       disparity as the safety-map nodelet reads it from the disparity
+//                       nodelet's message (stereo_camera_model.h DisparityMessageGeometry: f and
+//                       T in float32, the valid range) -> processDisparity()
+//   processDisparity(): disparity -> 3D points in the camera frame (002 Sec. 3.2,
+//                       stereo_camera_model.h; the grid's [min_range, max_range], every
+//                       `disparity_step`-th row and column) -> [landmark filter] -> the mapper
+//   processPoints():    points in the sensor frame (a depth sensor's cloud) -> the mapper
+//   the mapper:         voxel grid update, height map, segmentation, plane fit, labelling
+//                       (000 Sec. IV-VI, safety_mapper.h), cell aging at the frame's stamp
+//   [obstacle cue]:     the live single-frame obstacle cues of paper 003 mark their cells
+//                       Non-ground in each new map (obstacle_cue.h)
 //
-// The offline evaluator and the ROS nodelets share this class so that a frame read from a bag and
-// a frame arriving on a topic go through the same code: the evaluator calls processImages(); the
-// safety-map nodelet, which receives a disparity image, can call processDisparity() (the
-// reprojection range is the grid's [min_range, max_range] and `disparity_step` subsamples rows
-// and columns, exactly as the nodelet does).
+// Optional stages: paper 001's landmark filter (Sec. 4.2, landmark_filter.h) between the
+// reprojection and the voxel grid (`landmark_filter.enabled`: only points confirmed by a permanent
+// landmark reach the grid; disparity input only, it needs the camera; it runs on the frames the
+// grid integrates, not on stationary ones), and the obstacle cue (`obstacle_cue`; cues are handed
+// in with addObstacleCue()).
+//
+// Every frame carries its stamp [s]: the mapper ages the map with it (max_cell_age) and the
+// landmark filter and the obstacle cue need it. With kNoStamp the frame is not aged and no cue
+// applies (the landmark filter refuses it).
 #pragma once
 
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/landmark_filter.h"
+#include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/stereo_input_check.h"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include <cstddef>
+#include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace stereo_safety_map {
 
 struct StereoFrameProcessorConfig {
+  /// The disparity nodelet's check of the pair before matching (processImages only).
+  bool check_input = true;
+  StereoInputCheckConfig input_check;
   DisparityPipelineConfig disparity;
   SafetyMapperConfig mapper;
   int disparity_step =
@@ -39,6 +60,10 @@ struct StereoFrameProcessorConfig {
   /// 001's landmark filter in front of the voxel grid (off by default). Its depth range and
   /// stationary-frame thresholds are the mapper's (LandmarkStreamConfig::forMapper()).
   LandmarkStreamConfig landmark_filter;
+  /// Paper 003's single-frame obstacle cue fused into every new map (obstacle_cue.h; off by
+  /// default, see the README's "Obstacle cue").
+  bool obstacle_cue = false;
+  ObstacleCueConfig cue;
 
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;
@@ -61,6 +86,8 @@ struct StereoFrameResult {
   std::size_t points_reprojected = 0;  ///< before the landmark filter (== points when off)
   bool landmark_filter_ran = false;    ///< the filter ran on this frame (on, not stationary)
   LandmarkFilterStats landmarks;       ///< its counters when it ran
+  bool cue_applied = false;            ///< the obstacle cue marked this frame's map
+  ObstacleCueStats cue;                ///< what it did when applied
   StereoFrameTimings timings;
 };
 
@@ -81,27 +108,59 @@ class StereoFrameProcessor {
   const StereoFrameProcessorConfig& config() const { return config_; }
 
   /// Rectified pair (see DisparityPipeline::compute for the accepted types) of a camera whose
-  /// left optical frame is at `T_fixed_sensor`, robot base at `robot_base_position` (fixed frame).
+  /// left optical frame is at `T_fixed_sensor`, robot base at `robot_base_position` (fixed frame),
+  /// taken at `stamp` [s] (kNoStamp: no aging and no cue for this frame; the landmark filter
+  /// refuses it).
   /// Returns true when the frame was integrated. On false, *error (when non-null) says why: bad
   /// input or camera model, or the mapper's FrameStatus (stationary frames included; with the
-  /// landmark filter on, frames of which it confirms no point give the mapper's "empty input").
-  /// `stamp` [s] is needed by the landmark filter only (a non-finite stamp is then an error).
+  /// landmark filter on, a frame of which it confirms no point gives the mapper's "empty input"
+  /// and `result->landmark_filter_ran`).
   bool processImages(const cv::Mat& left, const cv::Mat& right, const StereoCameraModel& camera,
                      const Eigen::Isometry3f& T_fixed_sensor,
-                     const Eigen::Vector3f& robot_base_position, StereoFrameResult* result,
-                     std::string* error, double stamp = kNoStamp);
+                     const Eigen::Vector3f& robot_base_position, double stamp,
+                     StereoFrameResult* result, std::string* error);
 
   /// Same from a CV_32FC1 disparity image (pixels, invalid <= 0 or non-finite) of `camera`.
   bool processDisparity(const cv::Mat& disparity, const StereoCameraModel& camera,
                         const Eigen::Isometry3f& T_fixed_sensor,
-                        const Eigen::Vector3f& robot_base_position, StereoFrameResult* result,
-                        std::string* error, double stamp = kNoStamp);
+                        const Eigen::Vector3f& robot_base_position, double stamp,
+                        StereoFrameResult* result, std::string* error);
+
+  /// Same from points in the sensor frame (non-finite points are skipped by the grid). The
+  /// landmark filter does not run (it works in the image); the obstacle cue does.
+  bool processPoints(const std::vector<Eigen::Vector3f>& points_sensor,
+                     const Eigen::Isometry3f& T_fixed_sensor,
+                     const Eigen::Vector3f& robot_base_position, double stamp,
+                     StereoFrameResult* result, std::string* error);
+
+  /// Hands in the obstacle points of one frame of the detector (fixed frame) taken at `stamp`
+  /// (obstacle_cue.h): the next maps use them while they live. False when the cue is off or the
+  /// stamp is not finite.
+  bool addObstacleCue(double stamp, const std::vector<Eigen::Vector3f>& points_fixed);
+  /// Cells the cue marked in the last map (one entry per map cell, 1 = marked; empty when the
+  /// cue is off or did not run on the last map).
+  const std::vector<std::uint8_t>& cueMarked() const { return cue_marked_; }
+  /// Live cues held, and what the cue did to the last map.
+  int cueCount() const { return cue_ ? cue_->size() : 0; }
+  const ObstacleCueStats& lastCueStats() const { return cue_stats_; }
+
+  /// Recomputes the map of the current grid for a robot at `robot_base_position` (e.g. after a
+  /// stage parameter changed) with the live cues of `stamp`, as a new frame's map would be.
+  const SafetyMap& recompute(const Eigen::Vector3f& robot_base_position, double stamp);
+
+  /// Applies a new mapper configuration (SafetyMapper::reconfigure); a new grid also forgets the
+  /// landmarks and the cues. Returns "" or why the configuration is refused (nothing changes).
+  std::string reconfigureMapper(const SafetyMapperConfig& config, bool* grid_reset = nullptr);
 
   static constexpr double kNoStamp = std::numeric_limits<double>::quiet_NaN();
 
-  /// Disparity and points of the last frame (the disparity is empty after processDisparity); the
-  /// points are those handed to the mapper (after the landmark filter when it ran).
+  /// Disparity and points of the last frame: the disparity after processImages() as the safety
+  /// map reads it (the disparity nodelet's message values, DisparityMessageGeometry; empty after
+  /// processDisparity / processPoints), with disparityCamera() its camera model (pass both to
+  /// another processor's processDisparity() to map the same frame again); the points are those
+  /// handed to the mapper (after the landmark filter when it ran).
   const cv::Mat& disparity() const { return disparity_; }
+  const StereoCameraModel& disparityCamera() const { return disparity_camera_; }
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
 
   SafetyMapper& mapper() { return mapper_; }
@@ -110,23 +169,28 @@ class StereoFrameProcessor {
   /// The landmark filter (its permanent landmarks are 001's 3D model); idle when off.
   const LandmarkStreamFilter& landmarkFilter() const { return landmarks_; }
 
-  /// Forgets the map and the landmarks (the next frame counts as the first).
-  void reset() {
-    mapper_.reset();
-    landmarks_.reset();
-  }
+  /// Forgets the map, the landmarks and the cues (the next frame counts as the first).
+  void reset();
 
  private:
-  bool integrate(const cv::Mat& disparity, const StereoCameraModel& camera,
-                 const Eigen::Isometry3f& T_fixed_sensor,
+  // Paper 003's cue on the current map (obstacle_cue.h), when on and the stamp is finite.
+  void applyCue(const Eigen::Vector3f& robot_base_position, double stamp, StereoFrameResult* r);
+  // The shared tail of every entry point: landmark filter (when `camera` is given), mapper,
+  // obstacle cue, on points_.
+  bool integrate(const StereoCameraModel* camera, const Eigen::Isometry3f& T_fixed_sensor,
                  const Eigen::Vector3f& robot_base_position, double stamp,
                  StereoFrameResult* result, std::string* error);
 
   StereoFrameProcessorConfig config_;
   DisparityPipeline pipeline_;
+  StereoInputCheck input_check_;
   SafetyMapper mapper_;
   LandmarkStreamFilter landmarks_;
+  std::unique_ptr<ObstacleCueFusion> cue_;  // null when the cue is off
+  std::vector<std::uint8_t> cue_marked_;
+  ObstacleCueStats cue_stats_;
   cv::Mat disparity_;
+  StereoCameraModel disparity_camera_;
   std::vector<Eigen::Vector3f> points_;
 };
 

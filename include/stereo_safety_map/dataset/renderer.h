@@ -6,6 +6,7 @@
 // appears fB/Z pixels further left in the right image (002 Sec. 3.2). ROS-free.
 #pragma once
 
+#include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/dataset/scene.h"
 
 #include <Eigen/Core>
@@ -55,6 +56,10 @@ struct StereoHeadConfig {
   /// Pose of the left optical frame (x right, y down, z forward) in base_link.
   Eigen::Isometry3d baseToLeftOptical() const;
 };
+
+/// The core's model of the rectified pair the renderer makes from `head` (square pixels, same
+/// principal point in both images, the right camera `baseline` along x).
+StereoCameraModel stereoCameraModel(const StereoHeadConfig& head);
 
 /// Rotation from a camera body frame (x fwd, y left, z up) to its optical frame (REP 103).
 Eigen::Matrix3d linkToOpticalRotation();

@@ -92,6 +92,14 @@ std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                       const sensor_msgs::CameraInfo& right,
                                       StereoCameraModel* model);
 
+/// The inverse: the rectified CameraInfo of the left (right = false) or right camera of `model`,
+/// no distortion, ROS stereo convention (both cameras' P in the left camera's rectified frame,
+/// the right one with P[3] = Tx = -fx B). Every CameraInfo the package makes (datasets, bench,
+/// tests) comes from here, so that cameraModelFromCameraInfo(toCameraInfo(m, false),
+/// toCameraInfo(m, true)) gives m back.
+sensor_msgs::CameraInfo toCameraInfo(const StereoCameraModel& model, bool right,
+                                     const std_msgs::Header& header = std_msgs::Header());
+
 /// Geometry for a stereo_msgs/DisparityImage: its own f and T (the message's disparities already
 /// have the principal point offset removed, Z = f T / d, so cx_right = cx), the principal point
 /// and fy from the left CameraInfo (through image_geometry::PinholeCameraModel). Refuses zero or

@@ -135,10 +135,6 @@ class StereoBagReader {
   double bag_seconds_ = 0.0;
 };
 
-/// image_geometry's stereo model of a CameraInfo pair as the core's camera model.
-std::string cameraModelOf(const sensor_msgs::CameraInfo& left, const sensor_msgs::CameraInfo& right,
-                          StereoCameraModel* out);
-
 /// Heading of a camera's optical axis projected on the ground [rad].
 double yawOfOpticalAxis(const Eigen::Isometry3d& T_fixed_sensor);
 

@@ -1,5 +1,7 @@
-// The safety-map ROS class: translates stereo data and tf into calls of the core pipeline
-// (core/safety_mapper.h, paper 000 Sec. IV-VI) and its results into messages. Wrapped by
+// The safety-map ROS class: translates stereo data and tf into calls of the core's one entry
+// point per frame (core/stereo_frame_processor.h: reprojection, landmark filter, mapper of paper
+// 000 Sec. IV-VI, obstacle cue) and its results into messages; the offline evaluators call the
+// same entry point. Wrapped by
 // src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet).
 //
 // Threading model. Message callbacks run on the nodelet manager's thread pool. Each subscriber
@@ -20,7 +22,7 @@
 // Locks, and what each guards (always taken in this order, never the other way round):
 //   reconfigure_mutex_  dynamic_reconfigure's server (held by it while reconfigureCb runs);
 //                       mapper_config_ and ros_config_.max_rate are only touched there.
-//   core_mutex_         the core (mapper_) and robot_position_: the worker for a frame, the
+//   core_mutex_         the core (processor_) and robot_position_: the worker for a frame, the
 //                       aging timer, ~reset, ~save (while it serialises the map) and
 //                       reconfigureCb. Maps are published under it, so a message is never built
 //                       from a map being changed.
@@ -30,16 +32,16 @@
 //   stats_mutex_        counters and diagnostics; arrival_mutex_: tf wait measurement.
 // The exact matcher has its own mutex, never held while it calls back (into disparityCb).
 // Worker-only state (points_, disparity_, camera_, previous_input_...) is touched by the worker
-// thread alone. Constant after the constructor: ros_config_ (but max_rate), config_error_,
-// min_depth_, max_depth_. Publishers are thread-safe in roscpp. The destructor stops the
-// timers, services, reconfigure server and subscribers before the worker, so that no callback
-// runs into a half-destroyed object.
+// thread alone. Constant after the constructor: ros_config_ (but max_rate), config_error_.
+// Publishers are thread-safe in roscpp. The destructor stops the timers, services, reconfigure
+// server and subscribers before the worker, so that no callback runs into a half-destroyed object.
 #pragma once
 
 #include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
@@ -216,15 +218,13 @@ class SafetyMapRos {
   std::vector<std::uint8_t> previous_input_;  ///< data of the previous frame (frozen input)
   ros::Time previous_input_stamp_;
   std::uint32_t previous_input_width_ = 0, previous_input_height_ = 0;
-  double min_depth_ = 0.0;  ///< reprojection range: the grid's min_range / max_range
-  double max_depth_ = 0.0;
 
   // The core (guarded by core_mutex_).
   std::mutex core_mutex_;
-  std::unique_ptr<SafetyMapper> mapper_;
-  /// 001's landmark filter in front of the grid (~use_landmark_filter; null when off).
+  /// The core's frame path: reprojection, 001's landmark filter (~use_landmark_filter), the
+  /// mapper, the obstacle cue (~obstacle_cue). Null with an invalid configuration.
+  std::unique_ptr<StereoFrameProcessor> processor_;
   LandmarkStreamConfig landmark_config_;
-  std::unique_ptr<LandmarkStreamFilter> landmarks_;
   std::vector<Eigen::Vector3f> landmark_points_;
   Eigen::Vector3f robot_position_ = Eigen::Vector3f::Zero();
 
@@ -256,20 +256,29 @@ class SafetyMapRos {
   ros::WallTime window_start_;
 
   // Obstacle cue (~obstacle_cue): the labelled obstacle points of ObstacleDetectionNodelet (paper
-  // 003) mark their cells Non-ground in the next map (core/obstacle_cue.h). Lock order:
-  // core_mutex_ or stats_mutex_ before cue_mutex_; the cue callback holds cue_mutex_ alone.
+  // 003) mark their cells Non-ground in the next map (the processor's cue stage,
+  // core/obstacle_cue.h). The callback converts a cue and queues it under cue_mutex_; the worker
+  // hands the queued cues to the processor (under core_mutex_) before each frame, so that a cue
+  // never waits for a frame being processed. Lock order: core_mutex_ or stats_mutex_ before
+  // cue_mutex_; the cue callback holds cue_mutex_ alone.
+  struct PendingCue {
+    double stamp = 0.0;
+    std::vector<Eigen::Vector3f> points;  ///< fixed frame
+  };
   void setUpObstacleCue();
   void obstacleCueCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
   void obstacleCueProblem(const std::string& detail);
-  void applyObstacleCue(const ros::Time& stamp, const Eigen::Vector3f& robot_position);
+  /// Hands the queued cues to the processor (core_mutex_ held).
+  void takePendingCues();
   void diagnoseObstacleCue(diagnostic_updater::DiagnosticStatusWrapper& stat);
   ObstacleCueRosConfig cue_config_;
   ros::Subscriber obstacle_cue_sub_;
   std::mutex cue_mutex_;
-  std::unique_ptr<ObstacleCueFusion> obstacle_cue_;  ///< null when ~obstacle_cue is false
-  std::uint64_t cues_received_ = 0;                  ///< (guarded by cue_mutex_)
+  std::deque<PendingCue> pending_cues_;  ///< (guarded by cue_mutex_)
+  std::uint64_t cues_received_ = 0;      ///< (guarded by cue_mutex_)
   std::uint64_t cues_refused_ = 0;
-  ObstacleCueStats cue_stats_;  ///< of the last map
+  ObstacleCueStats cue_stats_;  ///< of the last map (guarded by cue_mutex_)
+  int cues_live_ = 0;           ///< held by the processor after the last map
 };
 
 }  // namespace stereo_safety_map
