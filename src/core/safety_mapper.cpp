@@ -73,12 +73,12 @@ std::string SafetyMapperConfig::validate() const {
 
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
-  c.segmentation.segment_islands = false;     // 000 Alg. 1 grows from the robot's island only
-  c.labelling.max_gap_cells = 0;              // 000 Sec. VI: neighbours touch
-  c.labelling.measured_step_test = false;     // 000 Alg. 2 steps 15-17: planes only
-  c.labelling.drop_off_margin = false;        // 000 Sec. VI: annotation only
-  c.plane_fit.vertical_margin = 0;            // 000 Sec. V-B: the segment's own points
-  c.max_cell_age = 0.0;                       // 000 keeps every voxel while in the window
+  c.segmentation.segment_islands = false;  // 000 Alg. 1 grows from the robot's island only
+  c.labelling.max_gap_cells = 0;           // 000 Sec. VI: neighbours touch
+  c.labelling.measured_step_test = false;  // 000 Alg. 2 steps 15-17: planes only
+  c.labelling.drop_off_margin = false;     // 000 Sec. VI: annotation only
+  c.plane_fit.vertical_margin = 0;         // 000 Sec. V-B: the segment's own points
+  c.max_cell_age = 0.0;                    // 000 keeps every voxel while in the window
   // The look-ahead must stay within the window; 0 centres it on the robot (000 Sec. IV).
   c.grid_look_ahead = 0.0;
   return c;
