@@ -274,6 +274,7 @@ bool checkRealPair(const cv::Mat& left, const cv::Mat& right, const StereoCamera
     r.T_fixed_camera = levelledCameraPose(n_c, d_c);
   }
   r.map = processor.mapper().safetyMap();
+  r.disparity = disparity;
   for (SafetyLabel l : r.map.labels) {
     r.level_cells += l == SafetyLabel::kLevel ? 1 : 0;
     r.inclined_cells += l == SafetyLabel::kInclined ? 1 : 0;

@@ -1,11 +1,13 @@
 // The single-pair check behind the real-data evaluation (real_pair_check.h) on worlds whose answer
 // is known: planes given in the camera frame, hand-made safety maps, synthetic point sets and a
 // rendered stereo pair of a camera 1.1 m above a floor pitched 22 deg down.
+#include "stereo_safety_map/core/image_labels.h"
 #include "stereo_safety_map/core/real_pair_check.h"
 #include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/dataset/scene.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -151,8 +153,19 @@ TEST(FitGroundPlaneRansac, FindsTheFloorAmongWallPoints) {
   EXPECT_FALSE(fitGroundPlaneRansac(pts, RealPairCheckConfig(), nullptr, &d));
 }
 
-TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
+// A floor with a box, rendered from a camera 1.1 m high pitched 22 deg down (320 x 240).
+struct RenderedBoxPair {
+  cv::Mat left, right;
+  StereoCameraModel camera;
+  Eigen::Isometry3d T_world_left = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d box_center{3.5, -1.0, 0.4};
+  Eigen::Vector3d box_size{0.6, 0.6, 0.8};
+  double mount_z = 0.0, pitch_deg = 0.0;
+};
+
+RenderedBoxPair renderBoxPair() {
   namespace ds = dataset;
+  RenderedBoxPair out;
   ds::Scene scene;
   ds::Material m;
   m.texture = ds::TextureKind::kNoise;
@@ -164,7 +177,7 @@ TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
   floor.ground = true;
   floor.name = "floor";
   scene.add(floor);
-  ds::Primitive box = ds::makeBox({3.5, -1.0, 0.4}, {0.6, 0.6, 0.8});
+  ds::Primitive box = ds::makeBox(out.box_center, out.box_size);
   box.material = mat;
   box.name = "box";
   scene.add(box);
@@ -173,26 +186,36 @@ TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
   head = head.scaledTo(320, 240);
   head.threads = 1;
   ds::StereoRenderer renderer(scene, head, 5);
-  cv::Mat left, right;
-  renderer.render(head.baseToLeftOptical(), 0, &left, &right);
+  out.T_world_left = head.baseToLeftOptical();
+  renderer.render(out.T_world_left, 0, &out.left, &out.right);
+  out.camera.fx = out.camera.fy = head.fx();
+  out.camera.cx = out.camera.cx_right = head.cx();
+  out.camera.cy = head.cy();
+  out.camera.baseline = head.baseline;
+  out.camera.width = head.width;
+  out.camera.height = head.height;
+  out.mount_z = head.mount_z;
+  out.pitch_deg = head.pitch_deg;
+  return out;
+}
 
-  StereoCameraModel camera;
-  camera.fx = camera.fy = head.fx();
-  camera.cx = camera.cx_right = head.cx();
-  camera.cy = head.cy();
-  camera.baseline = head.baseline;
-  camera.width = head.width;
-  camera.height = head.height;
+TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
+  const RenderedBoxPair p = renderBoxPair();
+  const cv::Mat& left = p.left;
+  const cv::Mat& right = p.right;
+  const StereoCameraModel& camera = p.camera;
   RealPairResult r;
   ASSERT_TRUE(checkRealPair(left, right, camera, RealPairCheckConfig(), &r)) << r.error;
   std::printf("rendered: %.3f m / %.2f deg, roll %.2f, %d cells %s, non-ground %d\n",
               r.map_plane.camera_height, r.map_plane.pitch_deg, r.map_plane.roll_deg,
               r.map_plane.cells, toString(r.map_plane.label), r.non_ground_cells);
-  EXPECT_NEAR(r.map_plane.camera_height, head.mount_z, 0.02);
-  EXPECT_NEAR(r.map_plane.pitch_deg, head.pitch_deg, 0.5);
+  EXPECT_NEAR(r.map_plane.camera_height, p.mount_z, 0.02);
+  EXPECT_NEAR(r.map_plane.pitch_deg, p.pitch_deg, 0.5);
   EXPECT_NEAR(r.map_plane.roll_deg, 0.0, 0.5);
   EXPECT_EQ(r.map_plane.label, SafetyLabel::kLevel);
   EXPECT_GT(r.non_ground_cells, 5);  // the box
+  EXPECT_EQ(r.disparity.size(), left.size());
+  EXPECT_EQ(r.disparity.type(), CV_32FC1);
 
   // Bad input is refused with a reason.
   EXPECT_FALSE(checkRealPair(cv::Mat(), right, camera, RealPairCheckConfig(), &r));
@@ -208,6 +231,83 @@ TEST(CheckRealPair, RenderedPairGivesTheKnownMountingHeightAndPitch) {
   const cv::Mat flat(camera.height, camera.width, CV_8UC1, cv::Scalar(128));
   EXPECT_FALSE(checkRealPair(flat, flat, camera, RealPairCheckConfig(), &r));  // no texture
   EXPECT_FALSE(checkRealPair(left, right, camera, RealPairCheckConfig(), nullptr));
+}
+
+// The scoring of image_labels.h end to end on the rendered pair: labels made by projecting the box
+// into the left image (its convex hull obstacle, everything else floor) must find the box's cells
+// Non-ground and the floor safe in the single-frame map, i.e. the pixels vote for the cells the
+// mapper put their points in.
+TEST(CheckRealPair, RenderedPairScoredAgainstProjectedLabels) {
+  const RenderedBoxPair p = renderBoxPair();
+  RealPairResult r;
+  ASSERT_TRUE(checkRealPair(p.left, p.right, p.camera, RealPairCheckConfig(), &r)) << r.error;
+
+  std::vector<cv::Point> corners;
+  for (int k = 0; k < 8; ++k) {
+    const Eigen::Vector3d c =
+        p.box_center + 0.5 * Eigen::Vector3d((k & 1) ? p.box_size.x() : -p.box_size.x(),
+                                             (k & 2) ? p.box_size.y() : -p.box_size.y(),
+                                             (k & 4) ? p.box_size.z() : -p.box_size.z());
+    const Eigen::Vector3d q = p.T_world_left.inverse() * c;
+    ASSERT_GT(q.z(), 0.0);
+    corners.emplace_back(static_cast<int>(std::lround(p.camera.fx * q.x() / q.z() + p.camera.cx)),
+                         static_cast<int>(std::lround(p.camera.fy * q.y() / q.z() + p.camera.cy)));
+  }
+  std::vector<cv::Point> hull;
+  cv::convexHull(corners, hull);
+  std::string text = "size " + std::to_string(p.camera.width) + " " +
+                     std::to_string(p.camera.height) + "\nfloor 0,0 " +
+                     std::to_string(p.camera.width) + ",0 " + std::to_string(p.camera.width) + "," +
+                     std::to_string(p.camera.height) + " 0," + std::to_string(p.camera.height) +
+                     "\nobstacle";
+  for (const cv::Point& h : hull) {
+    ASSERT_TRUE(h.x >= 0 && h.y >= 0 && h.x <= p.camera.width && h.y <= p.camera.height);
+    text += " " + std::to_string(h.x) + "," + std::to_string(h.y);
+  }
+  ImageLabels labels;
+  ASSERT_EQ(parseImageLabels(text + "\n", &labels), "");
+  cv::Mat label_image;
+  ASSERT_EQ(rasteriseImageLabels(labels, &label_image), "");
+  const RealPairCheckConfig config;
+  ImageLabelScore s;
+  ASSERT_EQ(
+      scoreAgainstImageLabels(label_image, r.disparity, p.camera, r.T_fixed_camera, r.map,
+                              LabelScoringConfig::forGrid(config.processor.mapper.grid.min_range,
+                                                          config.processor.mapper.grid.max_range),
+                              &s),
+      "");
+  const LabelClassScore& floor = s.classes[static_cast<int>(ImageLabel::kFloor)];
+  const LabelClassScore& box = s.classes[static_cast<int>(ImageLabel::kObstacle)];
+  const ErrorRates e0 = errorRates(s.exact), e1 = errorRates(s.tolerant);
+  std::printf(
+      "rendered vs projected labels: %d truth cells, coverage %.3f, FN %.3f FP %.3f "
+      "(1 cell: %.3f / %.3f); box %d cells recall %.3f (%.3f); floor %d cells recall "
+      "%.3f (%.3f)\n",
+      s.truth_cells, s.coverage(), e0.fn, e0.fp, e1.fn, e1.fp, box.cells, box.recall(),
+      box.recallTolerant(), floor.cells, floor.recall(), floor.recallTolerant());
+  // Geometry: every obstacle truth cell lies on the box's footprint, give or take a cell (the
+  // levelled frame is the map's, found from the rendered pair; stereo smears the box's edges).
+  const Eigen::Isometry3d T_world_fixed = p.T_world_left * r.T_fixed_camera.inverse();
+  for (std::size_t k = 0; k < s.truth.size(); ++k) {
+    if (s.truth[k] != ImageLabel::kObstacle) continue;
+    const int u = r.map.min_u + static_cast<int>(k) % r.map.width;
+    const int v = r.map.min_v + static_cast<int>(k) / r.map.width;
+    const Eigen::Vector3d w =
+        T_world_fixed * Eigen::Vector3d(u * r.map.resolution, v * r.map.resolution, 0.0);
+    EXPECT_LE(std::abs(w.x() - p.box_center.x()), 0.5 * p.box_size.x() + 0.2) << u << " " << v;
+    EXPECT_LE(std::abs(w.y() - p.box_center.y()), 0.5 * p.box_size.y() + 0.2) << u << " " << v;
+  }
+  // The box's top (0.6 x 0.6 m) and front face: about 6 x 6 cells. The map calls none of them
+  // safe; it leaves some of the top's cells Unknown (small segments, 000 Alg. 2 step 3).
+  EXPECT_GE(box.cells, 20);
+  EXPECT_LE(box.cells, 60);
+  EXPECT_EQ(box.map_safe, 0);
+  EXPECT_GE(box.recall(), 0.7);
+  EXPECT_GE(floor.cells, 200);
+  EXPECT_GE(floor.recallTolerant(), 0.9);
+  EXPECT_GE(s.coverage(), 0.9);
+  EXPECT_LE(e0.fn, 0.05);
+  EXPECT_LE(e1.fp, 0.05);
 }
 
 TEST(RealPairCheckConfig, ValidateNamesTheParameter) {

@@ -86,6 +86,9 @@ struct RealPairResult {
   GroundPlaneEstimate map_plane;  ///< from the final map's dominant plane
   Eigen::Isometry3d T_fixed_camera = Eigen::Isometry3d::Identity();  ///< of the final map
   SafetyMap map;                                                     ///< the final map
+  /// The left image's disparity (CV_32F, pixels, invalid <= 0) the map was built from, for
+  /// scoring the map against hand labels of the left image (image_labels.h).
+  cv::Mat disparity;
   int level_cells = 0;
   int inclined_cells = 0;
   int non_ground_cells = 0;
