@@ -836,21 +836,21 @@ bool Builder::step(bool up, Plan* p) {
 // ramp_up: a ramp from the floor up to a landing; ramp_down: from the floor down to a lower area.
 bool Builder::ramp(bool up, Plan* p) {
   const double s0 = slope();
-  double L = rng_.uniform(1.5, 3.0);
+  double L = rng_.uniform(1.0, 2.5);
   double h = L * std::tan(s0 * kDeg);
-  if (h > 0.6) L = 0.6 / std::tan(s0 * kDeg);
+  if (h > 0.5) L = 0.5 / std::tan(s0 * kDeg);
   L = q4(L);
   h = q4(L * std::tan(s0 * kDeg));
   const double s = std::atan(h / L) / kDeg;
   const double W = q4(rng_.uniform(1.0, 2.0));
-  const double land = q4(rng_.uniform(1.0, 2.0)), land_w = q4(W + rng_.uniform(0.0, 1.0));
+  const double land = q4(rng_.uniform(0.8, 1.5)), land_w = q4(W + rng_.uniform(0.0, 0.6));
   Anchor a;
   double yaw;
-  if (rng_.chance(0.35)) {  // beside a drive, running along it
+  if (rng_.chance(0.5)) {  // beside a drive, running along it
     if (!beside(passClearance() + 0.5 * std::max(W, land_w), &a)) return false;
     yaw = a.yaw;
   } else {  // ahead, the low (or top) end towards the robot
-    a = ahead(2.0, 4.0, 25.0);
+    a = ahead(1.5, 3.0, 25.0);
     yaw = a.yaw + rng_.uniform(-25.0, 25.0) * kDeg;
   }
   yaw = q2(yaw / kDeg) * kDeg;
@@ -1679,11 +1679,13 @@ std::string FootprintConfig::validate() const {
 
 std::map<std::string, double> ProceduralConfig::defaultKindWeights() {
   return {
-      {"curb_down", 1.0},     {"curb_up", 0.6},      {"curb_cut_down", 0.6}, {"curb_cut_up", 0.4},
-      {"step_up", 0.6},       {"step_down", 0.6},    {"ramp_up", 0.9},       {"ramp_down", 0.9},
-      {"platform_edge", 0.5}, {"loading_dock", 0.3}, {"pit", 0.4},           {"light_well", 0.3},
-      {"stairs_down", 0.4},   {"pole", 0.6},         {"bollard", 0.6},       {"table", 0.6},
-      {"shelf", 0.4},         {"legs", 0.5},         {"kerb_stone", 0.35},   {"box", 0.35},
+      // Weights of the draws; kinds that often do not fit (ramps with landings, curb cuts, light
+      // wells) are drawn more often so that they still appear in a good share of the scenes.
+      {"curb_down", 1.0},     {"curb_up", 0.6},      {"curb_cut_down", 0.8}, {"curb_cut_up", 0.7},
+      {"step_up", 0.7},       {"step_down", 0.7},    {"ramp_up", 1.6},       {"ramp_down", 1.6},
+      {"platform_edge", 0.5}, {"loading_dock", 0.3}, {"pit", 0.4},           {"light_well", 0.5},
+      {"stairs_down", 0.4},   {"pole", 0.5},         {"bollard", 0.5},       {"table", 0.5},
+      {"shelf", 0.4},         {"legs", 0.4},         {"kerb_stone", 0.3},    {"box", 0.3},
       {"bag", 0.3},           {"wall", 0.4},         {"doorway", 0.4}};
 }
 
