@@ -54,21 +54,6 @@ std::string trim(const std::string& s) {
   return s.substr(a, b - a + 1);
 }
 
-// Bilinear sample of channel c at (x, y), borders replicated.
-inline float sample(const cv::Mat& img, int ch, double x, double y, int c) {
-  const int W = img.cols, H = img.rows;
-  x = std::min(std::max(x, 0.0), W - 1.0);
-  y = std::min(std::max(y, 0.0), H - 1.0);
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
-  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
-  const float* r0 = img.ptr<float>(y0);
-  const float* r1 = img.ptr<float>(y1);
-  const float a = r0[x0 * ch + c] + fx * (r0[x1 * ch + c] - r0[x0 * ch + c]);
-  const float b = r1[x0 * ch + c] + fx * (r1[x1 * ch + c] - r1[x0 * ch + c]);
-  return a + fy * (b - a);
-}
-
 }  // namespace
 
 // ---- config ----
@@ -304,7 +289,14 @@ OdometryErrorModel::FramePoses OdometryErrorModel::next(const RobotPose& truth,
 // ---- images ----
 
 ImageDegrader::ImageDegrader(const DegradationConfig& config, std::uint64_t seed)
-    : config_(config), seed_(seed) {}
+    : config_(config), seed_(seed) {
+  // Unit Gaussians indexed by a per-pixel hash (as the renderer's noise): fast, and the same
+  // whatever order the frames come in.
+  PortableRng rng(seed ^ 0x7015Eull);
+  gauss_.resize(1 << 16);
+  for (float& g : gauss_)
+    g = static_cast<float>(rng.normal());
+}
 
 double ImageDegrader::exposureGain(std::uint64_t frame) const {
   double g = 1.0;
@@ -365,6 +357,14 @@ void ImageDegrader::apply(std::uint64_t frame, const RobotPose& motion,
     std::vector<double> rho(H, 1.0);
     // Motion blur: a box along the row's blur vector, centred on the pixel.
     if (blur) {
+      struct Tap {
+        const float* r0;
+        const float* r1;
+        float fy;
+        int ix;
+        float fx;
+      };
+      std::vector<Tap> taps;
       out_.create(H, W, work_.type());
       for (int y = 0; y < H; ++y) {
         const Eigen::Vector2d d = blurAt(motion, head, y);
@@ -376,14 +376,32 @@ void ImageDegrader::apply(std::uint64_t frame, const RobotPose& motion,
         }
         const int n = static_cast<int>(std::ceil(L)) + 1;
         rho[y] = 1.0 / (1.0 + L);  // n samples <= 1 px apart: exact for whole-pixel kernels
+        // The taps of this row: rows, vertical weight, horizontal offset and weight (bilinear).
+        taps.resize(n);
+        for (int i = 0; i < n; ++i) {
+          const double t = static_cast<double>(i) / (n - 1) - 0.5;
+          const double yy = std::min(std::max(y + t * d.y(), 0.0), H - 1.0);
+          const int y0 = static_cast<int>(yy);
+          const double ox = t * d.x();
+          Tap& tp = taps[i];
+          tp.r0 = work_.ptr<float>(y0);
+          tp.r1 = work_.ptr<float>(std::min(y0 + 1, H - 1));
+          tp.fy = static_cast<float>(yy - y0);
+          tp.ix = static_cast<int>(std::floor(ox));
+          tp.fx = static_cast<float>(ox - tp.ix);
+        }
+        const float inv = 1.0f / n;
         for (int x = 0; x < W; ++x) {
           for (int k = 0; k < ch; ++k) {
             float acc = 0.0f;
-            for (int i = 0; i < n; ++i) {
-              const double t = static_cast<double>(i) / (n - 1) - 0.5;
-              acc += sample(work_, ch, x + t * d.x(), y + t * d.y(), k);
+            for (const Tap& tp : taps) {
+              const int xa = std::min(std::max(x + tp.ix, 0), W - 1) * ch + k;
+              const int xb = std::min(std::max(x + tp.ix + 1, 0), W - 1) * ch + k;
+              const float a = tp.r0[xa] + tp.fx * (tp.r0[xb] - tp.r0[xa]);
+              const float b = tp.r1[xa] + tp.fx * (tp.r1[xb] - tp.r1[xa]);
+              acc += a + tp.fy * (b - a);
             }
-            o[x * ch + k] = acc / n;
+            o[x * ch + k] = acc * inv;
           }
         }
       }
@@ -411,14 +429,15 @@ void ImageDegrader::apply(std::uint64_t frame, const RobotPose& motion,
         r *= (1.0 - fr) * (1.0 - fr) + fr * fr;
     }
     // Noise top-up and back to 8 bits.
-    PortableRng rng(mixSeed(seed_ ^ 0x7015Eull) ^ mixSeed(frame * 2 + cam));
+    const std::uint64_t base = mixSeed(seed_ ^ mixSeed(frame * 2 + cam + 1));
     for (int y = 0; y < H; ++y) {
       const float* p = work_.ptr<float>(y);
       std::uint8_t* d = img->ptr<std::uint8_t>(y);
-      const double add = sigma * std::sqrt(std::max(0.0, 1.0 - rho[y]));
+      const float add = static_cast<float>(sigma * std::sqrt(std::max(0.0, 1.0 - rho[y])));
+      const std::uint64_t row = base + static_cast<std::uint64_t>(y) * W * ch;
       for (int k = 0; k < W * ch; ++k) {
         float v = p[k];
-        if (add > 1e-3) v += static_cast<float>(add * rng.normal());
+        if (add > 1e-3f) v += add * gauss_[mixSeed(row + k) & 0xFFFF];
         d[k] = static_cast<std::uint8_t>(std::min(255.0f, std::max(0.0f, std::round(v))));
       }
     }

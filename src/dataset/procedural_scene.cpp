@@ -411,7 +411,8 @@ Route makeRoute(const ProceduralConfig& cfg, PortableRng& rng) {
   };
   auto pause = [&](double s) { add(TrajectoryStep::Kind::kPause, 0, 0, q2(s), 0); };
   std::vector<double> drive_ends;
-  if (rng.chance(0.6)) pause(rng.uniform(0.5, 1.5));
+  // Pauses: stationary frames, 10-20 % of a dataset in 000 Sec. VII-A (skipped by the mapper).
+  if (rng.chance(0.8)) pause(rng.uniform(0.5, 1.5));
   bool any_go = false, last_back = false;
   while (D - duration() > 0.3) {
     const double rem = D - duration();
@@ -440,12 +441,12 @@ Route makeRoute(const ProceduralConfig& cfg, PortableRng& rng) {
       drive_ends.push_back(duration());
       any_go = true;
       last_back = false;
-    } else if (u < 0.6) {
+    } else if (u < 0.63) {
       pause(std::min(rng.uniform(0.5, 2.0), rem));
-    } else if (u < 0.75) {
+    } else if (u < 0.77) {
       const double a = std::min(rng.uniform(20.0, 90.0), rem * turn_rate);
       add(TrajectoryStep::Kind::kTurnBy, 0, 0, q2(rng.sign() * a), 0);
-    } else if (u < 0.85) {  // look around: turn and come back
+    } else if (u < 0.86) {  // look around: turn and come back
       const double a = std::min(rng.uniform(20.0, 45.0), 0.5 * rem * turn_rate);
       const double s = rng.sign();
       add(TrajectoryStep::Kind::kTurnBy, 0, 0, q2(s * a), 0);

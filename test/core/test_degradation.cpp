@@ -360,6 +360,18 @@ TEST(ImageDegrader, VignettingAndExposure) {
   EXPECT_NEAR(r.at<std::uint8_t>(479, 639), 160, 1);
   EXPECT_NEAR(l.at<std::uint8_t>(240, 0),
               200 * (1.0 - 0.2 * 319.5 * 319.5 / (319.5 * 319.5 + 239.5 * 239.5)), 1);
+  // Colour (bgr8) images: every channel alike, also through the motion blur.
+  cv::Mat lc(48, 64, CV_8UC3, cv::Scalar(200, 100, 50)), rc = lc.clone();
+  ds::RobotPose turning;
+  turning.omega = 0.5;
+  d.exposure_time_s = 0.02;
+  ds::ImageDegrader colour(d, 1);
+  colour.apply(0, turning, head, &lc, &rc);
+  const cv::Vec3b corner = lc.at<cv::Vec3b>(0, 0), centre = lc.at<cv::Vec3b>(24, 32);
+  EXPECT_NEAR(corner[0], 160, 1);
+  EXPECT_NEAR(corner[1], 80, 1);
+  EXPECT_NEAR(corner[2], 40, 1);
+  EXPECT_NEAR(centre[1], 100, 1);
   // Exposure jitter: per frame, the same for both cameras, sd as configured, deterministic.
   d = ds::DegradationConfig::none();
   d.exposure_jitter = 0.05;

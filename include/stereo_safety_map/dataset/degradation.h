@@ -20,6 +20,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace stereo_safety_map {
 namespace dataset {
@@ -154,7 +155,8 @@ class ImageDegrader {
  private:
   DegradationConfig config_;
   std::uint64_t seed_;
-  cv::Mat work_, out_;  // float scratch, reused
+  cv::Mat work_, out_;        // float scratch, reused
+  std::vector<float> gauss_;  // unit Gaussians for the noise top-up
 };
 
 }  // namespace dataset
