@@ -472,8 +472,15 @@ Route makeRoute(const ProceduralConfig& cfg, PortableRng& rng) {
       last_back = true;
     }
   }
+  // Pad to the duration with a pause (the last one lengthened when the route ends with one).
   const double rem = D - duration();
-  if (rem > 0.0) add(TrajectoryStep::Kind::kPause, 0, 0, std::ceil(rem * 1e4) / 1e4, 0);
+  if (rem > 0.0) {
+    if (!t.steps.empty() && t.steps.back().kind == TrajectoryStep::Kind::kPause) {
+      t.steps.back().value = std::ceil((t.steps.back().value + rem) * 1e4) / 1e4;
+    } else {
+      add(TrajectoryStep::Kind::kPause, 0, 0, std::ceil(rem * 1e4) / 1e4, 0);
+    }
+  }
   r.frames = sampleTrajectory(t);
   for (double te : drive_ends)
     r.stop_frames.push_back(std::min(static_cast<int>(r.frames.size()) - 1,
