@@ -438,6 +438,63 @@ Primitive makeFrustum(const Eigen::Vector2d& center, double z_base,
   return p;
 }
 
+Primitive makeSlab(const std::vector<Eigen::Vector3d>& top_in, double thickness) {
+  if (!(thickness > 0.0) || !std::isfinite(thickness)) return Primitive();
+  // Drop repeated corners (a closing corner equal to the first one included).
+  std::vector<Eigen::Vector3d> top;
+  for (const Eigen::Vector3d& v : top_in) {
+    if (!v.allFinite()) return Primitive();
+    if (top.empty() || (v - top.back()).head<2>().norm() > 1e-9) top.push_back(v);
+  }
+  while (top.size() > 1 && (top.front() - top.back()).head<2>().norm() <= 1e-9)
+    top.pop_back();
+  const std::size_t n = top.size();
+  if (n < 3) return Primitive();
+  // Newell's normal of the polygon; counter-clockwise seen from above gives n.z > 0.
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d& a = top[i];
+    const Eigen::Vector3d& b = top[(i + 1) % n];
+    normal += Eigen::Vector3d((a.y() - b.y()) * (a.z() + b.z()), (a.z() - b.z()) * (a.x() + b.x()),
+                              (a.x() - b.x()) * (a.y() + b.y()));
+    centroid += a;
+  }
+  centroid /= static_cast<double>(n);
+  const double sign = normal.z() < 0.0 ? -1.0 : 1.0;
+  normal *= sign;
+  if (!(normal.norm() > 1e-12)) return Primitive();
+  normal.normalize();
+  if (normal.z() < 0.05) return Primitive();  // (nearly) vertical: not a slab top
+  for (const Eigen::Vector3d& v : top)
+    if (std::abs(normal.dot(v - centroid)) > 1e-3) return Primitive();  // not planar
+  // Convex in plan: every turn has the orientation of the polygon (collinear corners allowed).
+  double area2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d a = top[i].head<2>(), b = top[(i + 1) % n].head<2>(),
+                          c = top[(i + 2) % n].head<2>();
+    const Eigen::Vector2d e1 = b - a, e2 = c - b;
+    if (sign * (e1.x() * e2.y() - e1.y() * e2.x()) < -1e-9 * e1.norm() * e2.norm())
+      return Primitive();
+    area2 += a.x() * b.y() - b.x() * a.y();
+  }
+  if (!(std::abs(area2) > 1e-9)) return Primitive();
+  double z_min = top[0].z();
+  for (const Eigen::Vector3d& v : top)
+    z_min = std::min(z_min, v.z());
+  std::vector<HalfSpace> hs;
+  hs.push_back({normal, normal.dot(centroid)});
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d a = top[i].head<2>(), b = top[(i + 1) % n].head<2>();
+    const Eigen::Vector2d e = (b - a).normalized();
+    // Outward normal of the edge: right of the edge for a counter-clockwise polygon.
+    const Eigen::Vector2d out = sign * Eigen::Vector2d(e.y(), -e.x());
+    hs.push_back({Eigen::Vector3d(out.x(), out.y(), 0.0), out.dot(a)});
+  }
+  hs.push_back({-Eigen::Vector3d::UnitZ(), -(z_min - thickness)});
+  return makeConvex(hs);
+}
+
 Primitive makeCylinder(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius) {
   Primitive p;
   p.shape = Primitive::Shape::kCylinder;

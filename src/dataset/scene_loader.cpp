@@ -208,6 +208,22 @@ double positive(Fields& f, const std::string& key, double def) {
   return v;
 }
 
+// One [x, y] or [x, y, z] point of a list.
+Eigen::VectorXd pointOf(const YAML::Node& v, const std::string& ctx, int size) {
+  if (!v.IsSequence() || static_cast<int>(v.size()) != size)
+    throw LoadError(ctx + ": expected points of " + std::to_string(size) + " numbers" + where(v));
+  Eigen::VectorXd out(size);
+  for (int i = 0; i < size; ++i) {
+    try {
+      out[i] = v[i].as<double>();
+    } catch (const YAML::Exception&) {
+      throw LoadError(ctx + ": expected a number" + where(v[i]));
+    }
+    if (!std::isfinite(out[i])) throw LoadError(ctx + ": must be finite" + where(v[i]));
+  }
+  return out;
+}
+
 // Expands one `primitives` entry into solids.
 std::vector<Primitive> buildEntry(Scene* scene, const YAML::Node& node, const std::string& ctx,
                                   int index) {
@@ -223,9 +239,25 @@ std::vector<Primitive> buildEntry(Scene* scene, const YAML::Node& node, const st
   if (type == "floor" || type == "platform") {
     ground_default = true;
     const double z = f.num("z", 0.0), th = positive(f, "thickness", 0.3);
-    Eigen::Vector2d c, size;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero(), size = Eigen::Vector2d::Zero();
     double yaw = 0.0;
-    if (f.has("min") || f.has("max")) {
+    if (f.has("polygon")) {
+      // A convex polygon (the floor around a sunken area cut at an angle).
+      const YAML::Node poly = f.node("polygon");
+      if (!poly.IsSequence() || poly.size() < 3)
+        throw LoadError(f.name("polygon") + ": expected a list of at least 3 [x, y]" + where(poly));
+      std::vector<Eigen::Vector3d> top;
+      for (std::size_t i = 0; i < poly.size(); ++i) {
+        const Eigen::Vector2d v = pointOf(poly[i], f.name("polygon"), 2);
+        top.emplace_back(v.x(), v.y(), z);
+      }
+      if (f.has("min") || f.has("max") || f.has("center") || f.has("size"))
+        throw LoadError(ctx + ": give either polygon, min/max or center/size");
+      Primitive p = makeSlab(top, th);
+      if (p.vertices.empty())
+        throw LoadError(f.name("polygon") + ": must be a convex polygon with a positive area");
+      out.push_back(p);
+    } else if (f.has("min") || f.has("max")) {
       const Eigen::Vector2d lo = f.vec2("min"), hi = f.vec2("max");
       c = 0.5 * (lo + hi);
       size = hi - lo;
@@ -234,9 +266,11 @@ std::vector<Primitive> buildEntry(Scene* scene, const YAML::Node& node, const st
       size = f.vec2("size");
       yaw = f.num("yaw_deg", 0.0) * kDeg;
     }
-    if (!(size.minCoeff() > 0.0)) throw LoadError(ctx + ": floor extent must be positive");
-    out.push_back(makeBox(Eigen::Vector3d(c.x(), c.y(), z - 0.5 * th),
-                          Eigen::Vector3d(size.x(), size.y(), th), rotationYpr(yaw)));
+    if (out.empty()) {
+      if (!(size.minCoeff() > 0.0)) throw LoadError(ctx + ": floor extent must be positive");
+      out.push_back(makeBox(Eigen::Vector3d(c.x(), c.y(), z - 0.5 * th),
+                            Eigen::Vector3d(size.x(), size.y(), th), rotationYpr(yaw)));
+    }
   } else if (type == "ramp") {
     ground_default = true;
     const Eigen::Vector2d from = f.vec2("from"), to = f.vec2("to");
@@ -252,6 +286,20 @@ std::vector<Primitive> buildEntry(Scene* scene, const YAML::Node& node, const st
       z_to = f.num("z_to", z_from);
     }
     out.push_back(makeRamp(from, to, width, z_from, z_to, th));
+  } else if (type == "slab") {
+    ground_default = true;
+    const YAML::Node poly = f.node("top");
+    if (!poly || !poly.IsSequence() || poly.size() < 3)
+      throw LoadError(f.name("top") + ": expected a list of at least 3 [x, y, z]" + where(node));
+    std::vector<Eigen::Vector3d> top;
+    for (std::size_t i = 0; i < poly.size(); ++i)
+      top.push_back(pointOf(poly[i], f.name("top"), 3));
+    Primitive p = makeSlab(top, positive(f, "thickness", 0.3));
+    if (p.vertices.empty())
+      throw LoadError(
+          f.name("top") +
+          ": must be a planar (1 mm) convex polygon, not vertical, with a positive area");
+    out.push_back(p);
   } else if (type == "stairs" || type == "steps") {
     ground_default = true;
     const Eigen::Vector2d from = f.vec2("from");
@@ -384,8 +432,8 @@ std::vector<Primitive> buildEntry(Scene* scene, const YAML::Node& node, const st
     }
   } else {
     throw LoadError(ctx + ": unknown type '" + type +
-                    "' (floor, platform, ramp, stairs, box, board, wall, pole, cylinder, mound, "
-                    "table, railing)");
+                    "' (floor, platform, slab, ramp, stairs, box, board, wall, pole, cylinder, "
+                    "mound, table, railing)");
   }
 
   const bool ground = f.flag("ground", ground_default);
@@ -452,6 +500,14 @@ void parseTrajectory(const YAML::Node& node, TrajectoryConfig* t, bool* has_base
         st.speed = s.num("speed", 0.0);
         ++kinds;
       }
+      if (s.has("back")) {
+        st.kind = TrajectoryStep::Kind::kBack;
+        const Eigen::Vector2d g = s.vec2("back");
+        st.x = g.x();
+        st.y = g.y();
+        st.speed = s.num("speed", 0.0);
+        ++kinds;
+      }
       if (s.has("turn_to")) {
         st.kind = TrajectoryStep::Kind::kTurnTo;
         st.value = s.num("turn_to", 0.0);
@@ -464,7 +520,7 @@ void parseTrajectory(const YAML::Node& node, TrajectoryConfig* t, bool* has_base
       }
       if (kinds != 1)
         throw LoadError("trajectory.steps[" + std::to_string(i) +
-                        "]: exactly one of pause, go, turn_to, turn_by" + where(steps[i]));
+                        "]: exactly one of pause, go, back, turn_to, turn_by" + where(steps[i]));
       s.finish();
       t->steps.push_back(st);
     }

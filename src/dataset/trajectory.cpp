@@ -22,15 +22,17 @@ struct Segment {
   double t0 = 0.0, t1 = 0.0;
   double x0 = 0.0, y0 = 0.0, yaw0 = 0.0;
   double x1 = 0.0, y1 = 0.0, yaw1 = 0.0;
+  bool reverse = false;  // driving backwards (kBack): negative forward speed
 };
 
 std::vector<Segment> buildSegments(const TrajectoryConfig& c) {
   std::vector<Segment> segs;
   double t = 0.0, x = c.start_x, y = c.start_y, yaw = c.start_yaw_deg * kDeg;
   const double turn_rate = c.turn_rate_deg * kDeg;
-  auto push = [&](double duration, double nx, double ny, double nyaw) {
+  auto push = [&](double duration, double nx, double ny, double nyaw, bool reverse = false) {
     if (!(duration > 0.0)) return;
     Segment s;
+    s.reverse = reverse;
     s.t0 = t;
     s.t1 = t + duration;
     s.x0 = x;
@@ -68,6 +70,17 @@ std::vector<Segment> buildSegments(const TrajectoryConfig& c) {
         push(dist / v, st.x, st.y, yaw);
         break;
       }
+      case TrajectoryStep::Kind::kBack: {
+        const double dx = st.x - x, dy = st.y - y;
+        const double dist = std::hypot(dx, dy);
+        if (dist < 1e-9) break;
+        // Reversing: turn (if needed) so that the rear faces the target, then back up straight.
+        const double dyaw = wrapAngle(std::atan2(dy, dx) + M_PI - yaw);
+        if (std::abs(dyaw) > 1e-9) turn(dyaw);
+        const double v = st.speed > 0.0 ? st.speed : c.speed;
+        push(dist / v, st.x, st.y, yaw, true);
+        break;
+      }
     }
   }
   return segs;
@@ -93,7 +106,8 @@ std::string TrajectoryConfig::validate() const {
       return who + "values must be finite";
     if (s.kind == TrajectoryStep::Kind::kPause && !(s.value >= 0.0 && s.value <= 3600.0))
       return who + "pause must be in [0, 3600] [s]";
-    if (s.kind == TrajectoryStep::Kind::kGo && !(s.speed >= 0.0 && s.speed <= 5.0))
+    if ((s.kind == TrajectoryStep::Kind::kGo || s.kind == TrajectoryStep::Kind::kBack) &&
+        !(s.speed >= 0.0 && s.speed <= 5.0))
       return who + "speed must be in [0, 5] [m/s] (0 = default)";
   }
   if (trajectoryDuration(*this) > 3600.0) return "trajectory longer than one hour";
@@ -128,7 +142,7 @@ RobotPose evaluate(const std::vector<Segment>& segs, const TrajectoryConfig& c, 
   p.y = s.y0 + a * (s.y1 - s.y0);
   p.yaw = wrapAngle(s.yaw0 + a * (s.yaw1 - s.yaw0));
   if (t >= 0.0 && t <= segs.back().t1 && dur > 0.0) {
-    p.v = std::hypot(s.x1 - s.x0, s.y1 - s.y0) / dur;
+    p.v = std::hypot(s.x1 - s.x0, s.y1 - s.y0) / dur * (s.reverse ? -1.0 : 1.0);
     p.omega = (s.yaw1 - s.yaw0) / dur;
   }
   return p;

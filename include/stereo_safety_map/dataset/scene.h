@@ -197,6 +197,12 @@ Primitive makeFrustum(const Eigen::Vector2d& center, double z_base,
                       const Eigen::Vector2d& base_size, const Eigen::Vector2d& top_size,
                       double height, double yaw);
 
+/// Convex slab: its top face is the planar convex polygon `top` (corners in either order seen
+/// from above, planar within 1 mm, not vertical), vertical sides, the bottom `thickness` below its
+/// lowest corner. Curb-cut flares (triangles), floors cut around a sunken area at an angle.
+/// Returns a primitive with no vertices when the polygon is not planar, not convex or degenerate.
+Primitive makeSlab(const std::vector<Eigen::Vector3d>& top, double thickness);
+
 /// Finite cylinder between the centres of its two caps.
 Primitive makeCylinder(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, double radius);
 

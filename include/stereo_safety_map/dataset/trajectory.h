@@ -1,4 +1,5 @@
-// Planar robot trajectories for the synthetic datasets: in-place turns, straight drives and pauses,
+// Planar robot trajectories for the synthetic datasets: in-place turns, straight drives (forwards
+// or in reverse) and pauses,
 // sampled at the camera frame rate. Pauses give stationary frames, which the pipeline must skip
 // (000 Sec. IV; 10 to 20 percent of the frames in 000 Sec. VII-A). The robot stays on level
 // ground like the paper's 3-DOF robot (000 Sec. I-A). ROS-free.
@@ -13,12 +14,16 @@ namespace dataset {
 
 /// One motion command of a trajectory.
 struct TrajectoryStep {
-  enum class Kind { kPause, kGo, kTurnTo, kTurnBy };
+  /// kGo: turn in place to face the target, then drive forwards to it. kBack: turn in place so
+  /// that the rear faces the target (no turn when it lies straight behind), then reverse to it
+  /// in a straight line: the heading is kept, the robot never faces the target (a wheelchair
+  /// backing out of a corner or away from an edge).
+  enum class Kind { kPause, kGo, kTurnTo, kTurnBy, kBack };
   Kind kind = Kind::kPause;
-  double x = 0.0;  ///< kGo: target [m]
+  double x = 0.0;  ///< kGo, kBack: target [m]
   double y = 0.0;
   double value = 0.0;  ///< kPause: duration [s]; kTurnTo: yaw [deg]; kTurnBy: yaw change [deg]
-  double speed = 0.0;  ///< kGo: [m/s], 0 = TrajectoryConfig::speed
+  double speed = 0.0;  ///< kGo, kBack: [m/s], 0 = TrajectoryConfig::speed
 };
 
 struct TrajectoryConfig {
@@ -39,7 +44,7 @@ struct RobotPose {
   double t = 0.0;  ///< time since the first frame [s]
   double x = 0.0, y = 0.0, z = 0.0;
   double yaw = 0.0;         ///< [rad]
-  double v = 0.0;           ///< forward speed [m/s]
+  double v = 0.0;           ///< forward speed [m/s], negative when reversing
   double omega = 0.0;       ///< yaw rate [rad/s]
   bool stationary = false;  ///< same pose as the previous frame
 };
