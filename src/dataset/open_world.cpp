@@ -1,0 +1,186 @@
+#include "stereo_safety_map/dataset/open_world.h"
+
+#include "stereo_safety_map/core/map_image.h"
+#include "stereo_safety_map/dataset/renderer.h"
+#include "stereo_safety_map/dataset/trajectory.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+
+#include <sstream>
+
+namespace stereo_safety_map {
+namespace dataset {
+
+namespace {
+
+// The planar part of a pose (x, y, yaw about z).
+Eigen::Isometry2d planar(const Eigen::Isometry3d& T) {
+  const double yaw = std::atan2(T.linear()(1, 0), T.linear()(0, 0));
+  Eigen::Isometry2d P = Eigen::Isometry2d::Identity();
+  P.linear() = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+  P.translation() = T.translation().head<2>();
+  return P;
+}
+
+std::string describe(const ProceduralScene& s) {
+  std::ostringstream os;
+  os << s.floor_kind << (s.indoor ? " indoor" : " outdoor") << ":";
+  for (const HazardItem& h : s.hazards)
+    os << " " << h.kind;
+  return os.str();
+}
+
+}  // namespace
+
+SafetyMap mapInWorld(const SafetyMap& map, const Eigen::Isometry2d& T_world_odom,
+                     const GroundTruthMap& gt) {
+  SafetyMap out;
+  out.resolution = gt.resolution;
+  Eigen::AlignedBox2d box;
+  const double l = map.resolution;
+  for (const Eigen::Vector2d c :
+       {Eigen::Vector2d(map.min_u, map.min_v), Eigen::Vector2d(map.min_u + map.width, map.min_v),
+        Eigen::Vector2d(map.min_u, map.min_v + map.height),
+        Eigen::Vector2d(map.min_u + map.width, map.min_v + map.height)}) {
+    box.extend(T_world_odom * (l * c));
+  }
+  out.min_u = gt.cellOf(box.min().x());
+  out.min_v = gt.cellOf(box.min().y());
+  out.width = std::max(0, gt.cellOf(box.max().x()) - out.min_u + 1);
+  out.height = std::max(0, gt.cellOf(box.max().y()) - out.min_v + 1);
+  const std::size_t n = static_cast<std::size_t>(out.width) * out.height;
+  out.labels.assign(n, SafetyLabel::kUnexamined);
+  out.segment.assign(n, -1);
+  out.drop_off.assign(n, 0);
+  out.column_height.assign(n, SafetyMap::kNoHeight);
+  const Eigen::Isometry2d T_odom_world = T_world_odom.inverse();
+  for (int v = out.min_v; v < out.min_v + out.height; ++v) {
+    for (int u = out.min_u; u < out.min_u + out.width; ++u) {
+      const Eigen::Vector2d q =
+          T_odom_world * Eigen::Vector2d(u * gt.resolution, v * gt.resolution);
+      const int mu = static_cast<int>(std::lround(q.x() / l));
+      const int mv = static_cast<int>(std::lround(q.y() / l));
+      if (!map.inside(mu, mv)) continue;
+      out.labels[out.index(u, v)] = map.labelAt(mu, mv);
+      out.drop_off[out.index(u, v)] = map.drop_off[map.index(mu, mv)];
+    }
+  }
+  const Eigen::Vector2d robot = T_world_odom * Eigen::Vector2d(map.robot_u * l, map.robot_v * l);
+  out.robot_u = gt.cellOf(robot.x());
+  out.robot_v = gt.cellOf(robot.y());
+  out.robot_segment = map.robot_segment;
+  return out;
+}
+
+OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
+                                       const DegradationConfig& degradation,
+                                       const std::vector<OpenWorldVariant>& variants,
+                                       const OpenWorldRunOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  OpenWorldSceneResult result;
+  result.seed = scene.seed;
+  result.description = describe(scene);
+  try {
+    if (variants.empty()) throw std::invalid_argument("no variant");
+    // The ground truth of the undegraded geometry, from the trajectory's start.
+    const SceneFile& file = scene.file;
+    GroundTruthMap gt;
+    std::string err =
+        computeGroundTruth(file.scene, options.ground_truth,
+                           Eigen::Vector2d(file.trajectory.start_x, file.trajectory.start_y), &gt);
+    if (!err.empty()) throw std::runtime_error("ground truth: " + err);
+    const std::vector<HazardClass> classes = hazardClassMap(scene, gt, options.ground_truth);
+
+    // The render side of the degradation: noise, gain mismatch, grain.
+    Scene rendered_scene = file.scene;
+    StereoHeadConfig head = file.camera;
+    head.threads = options.render_threads;
+    applyToRender(degradation, &head, &rendered_scene);
+    StereoRenderer renderer(rendered_scene, head, file.seed);
+    const StereoCameraModel camera = stereoCameraModel(head);
+    OdometryErrorModel odometry(degradation, file.seed);
+    ImageDegrader degrader(degradation, file.seed);
+
+    std::vector<std::unique_ptr<StereoFrameProcessor>> processors;
+    for (const OpenWorldVariant& v : variants)
+      processors.push_back(std::make_unique<StereoFrameProcessor>(v.config));
+    OpenWorldScorer scorer(file.scene, gt, classes, options.scoring,
+                           static_cast<int>(variants.size()));
+    result.scores.assign(variants.size(), SceneScore());
+
+    const std::vector<RobotPose> poses = sampleTrajectory(file.trajectory);
+    if (poses.empty()) throw std::runtime_error("empty trajectory");
+    const std::size_t frames =
+        options.max_frames >= 0
+            ? std::min(poses.size(), static_cast<std::size_t>(options.max_frames))
+            : poses.size();
+    cv::Mat left, right, depth, ids;
+    for (std::size_t i = 0; i < frames; ++i) {
+      const RobotPose& truth = poses[i];
+      const OdometryErrorModel::FramePoses fp = odometry.next(truth, head);
+      if (!renderer.render(fp.true_left_optical, i, &left, &right, &depth, &ids)) {
+        throw std::runtime_error("render failed at frame " + std::to_string(i));
+      }
+      degrader.apply(i, truth, head, &left, &right);
+      const Eigen::Vector2d robot(truth.x, truth.y);
+      scorer.observeFrame(fp.true_left_optical, camera, depth, ids, robot);
+      const Eigen::Isometry2d T_world_odom =
+          planar(fp.true_base) * planar(fp.reported_base).inverse();
+      const Eigen::Isometry3f T_fixed_sensor = fp.reported_left_optical.cast<float>();
+      const Eigen::Vector3f base = fp.reported_base.translation().cast<float>();
+      for (std::size_t k = 0; k < variants.size(); ++k) {
+        StereoFrameProcessor& p = *processors[k];
+        StereoFrameResult r;
+        std::string why;
+        bool ok;
+        if (k == 0 || variants[k].own_disparity) {
+          ok = p.processImages(left, right, camera, T_fixed_sensor, base, truth.t, &r, &why);
+        } else if (processors[0]->disparity().empty()) {
+          continue;  // the first variant refused the pair: so would this one
+        } else {
+          ok = p.processDisparity(processors[0]->disparity(), processors[0]->disparityCamera(),
+                                  T_fixed_sensor, base, truth.t, &r, &why);
+        }
+        if (!ok) continue;
+        if (!options.image_dir.empty() &&
+            std::find(options.image_frames.begin(), options.image_frames.end(),
+                      static_cast<int>(i)) != options.image_frames.end()) {
+          const SafetyMap world = mapInWorld(p.mapper().safetyMap(), T_world_odom, gt);
+          LabelGrid gt_grid;
+          gt_grid.min_u = gt.min_u;
+          gt_grid.min_v = gt.min_v;
+          gt_grid.width = gt.width;
+          gt_grid.height = gt.height;
+          gt_grid.resolution = gt.resolution;
+          gt_grid.labels = gt.labels;
+          ConfusionCounts counts;
+          std::vector<CellOutcome> outcomes;
+          countConfusion(world, gt_grid, &counts, &outcomes);
+          const std::string name = "seed" + std::to_string(scene.seed) + "_frame" +
+                                   std::to_string(i) + "_" + variants[k].name;
+          cv::imwrite(
+              options.image_dir + "/" + name + ".png",
+              mapBesideGroundTruth(world, gt_grid, outcomes, Eigen::Vector3d(truth.x, truth.y, 0.0),
+                                   truth.yaw, name));
+        }
+        scorer.scoreMap(static_cast<int>(k), p.mapper().safetyMap(), truth.t, T_world_odom, robot,
+                        &result.scores[k]);
+      }
+      ++result.frames;
+    }
+    for (SceneScore& s : result.scores)
+      scorer.finish(&s);
+  } catch (const std::exception& e) {
+    result.error = e.what();
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace dataset
+}  // namespace stereo_safety_map

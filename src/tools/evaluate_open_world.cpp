@@ -1,0 +1,476 @@
+// evaluate_open_world: the open-world evaluation (docs/evaluation.md, "Open world"). Procedural
+// scenes made from seeds (procedural_scene.h), rendered under degradations (degradation.h), mapped
+// by the core's one entry point per frame (StereoFrameProcessor, what the safety-map nodelet
+// runs) with several mapper variants, and scored against the analytic ground truth
+// (open_world_scoring.h). No roscore, no bag: every frame is rendered in memory.
+//
+//   evaluate_open_world [--split dev|report] [--scenes N] [--first K] [--conditions LIST]
+//                       [--variants LIST] [--jobs N] [--max-frames N] [--out DIR]
+//                       [--params YAML ...] [--set key=value ...] [--images F1,F2,...] [--quiet]
+//
+// Splits. The seeds of the two splits never overlap:
+//   dev     seeds kDevSeedBase + k: for developing and tuning; look at these as much as you like.
+//   report  seeds kReportSeedBase + k: the numbers the README reports. NO TUNING EVER LOOKS AT
+//           THEM: no parameter, threshold, rule or scene generator change may be chosen by its
+//           effect on this split. Run it on the final code, report what it says even when it is
+//           worse, and never iterate on it.
+// Conditions (degradation presets, degradation.h): perfect (no degradation, perfect pose),
+// default (the documented default degradations), strong; or any spec parseDegradation() takes.
+// Variants: default (config files), paper (paperFaithful(): every "(ours)" switch off),
+// no_margin (drop_off_margin off), sgbm (matcher: sgbm), or name:key=value;key=value (the
+// configuration with these parameters: for trying a change on the dev split).
+//
+// Writes DIR/metrics.json, DIR/report.md and DIR/scenes.csv (one line per scene, condition and
+// variant). Exits 0 when every scene ran.
+#include "stereo_safety_map/core/evaluation_metrics.h"
+#include "stereo_safety_map/core/stereo_frame_processor.h"
+#include "stereo_safety_map/dataset/degradation.h"
+#include "stereo_safety_map/dataset/open_world.h"
+#include "stereo_safety_map/dataset/procedural_scene.h"
+#include "stereo_safety_map/ros/dataset_reader.h"
+#include "tool_support/json.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace ssm = stereo_safety_map;
+namespace ds = stereo_safety_map::dataset;
+
+namespace {
+
+// The two splits' seeds (see the header comment: the report split is never tuned on).
+constexpr std::uint64_t kDevSeedBase = 1;
+constexpr std::uint64_t kReportSeedBase = 1000001;
+
+struct Options {
+  std::string split = "dev";
+  int scenes = 10;
+  int first = 0;
+  std::vector<std::string> conditions = {"default"};
+  std::vector<std::string> variants = {"default"};
+  int jobs = 2;
+  int max_frames = -1;
+  std::string out = "out/open_world";
+  std::vector<std::string> params;
+  std::vector<std::string> sets;
+  bool quiet = false;
+  std::vector<int> image_frames;  // pictures of these frames of every scene (DIR/images/)
+};
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: evaluate_open_world [--split dev|report] [--scenes N] [--first K]\n"
+               "         [--conditions perfect,default,strong] [--variants default,paper,"
+               "no_margin,sgbm]\n"
+               "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
+               "key=value ...] [--quiet]\n");
+}
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&](std::string* v) {
+      if (i + 1 >= argc) return false;
+      *v = argv[++i];
+      return true;
+    };
+    std::string v;
+    if (a == "--split" && next(&v)) {
+      o->split = v;
+    } else if (a == "--scenes" && next(&v)) {
+      o->scenes = std::atoi(v.c_str());
+    } else if (a == "--first" && next(&v)) {
+      o->first = std::atoi(v.c_str());
+    } else if (a == "--conditions" && next(&v)) {
+      o->conditions = splitList(v);
+    } else if (a == "--variants" && next(&v)) {
+      o->variants = splitList(v);
+    } else if (a == "--jobs" && next(&v)) {
+      o->jobs = std::max(1, std::atoi(v.c_str()));
+    } else if (a == "--max-frames" && next(&v)) {
+      o->max_frames = std::atoi(v.c_str());
+    } else if (a == "--out" && next(&v)) {
+      o->out = v;
+    } else if (a == "--params" && next(&v)) {
+      o->params.push_back(v);
+    } else if (a == "--set" && next(&v)) {
+      o->sets.push_back(v);
+    } else if (a == "--images" && next(&v)) {
+      for (const std::string& f : splitList(v))
+        o->image_frames.push_back(std::atoi(f.c_str()));
+    } else if (a == "--quiet") {
+      o->quiet = true;
+    } else {
+      return false;
+    }
+  }
+  return (o->split == "dev" || o->split == "report") && o->scenes > 0 && o->first >= 0 &&
+         !o->conditions.empty() && !o->variants.empty();
+}
+
+std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessorConfig& base,
+                        ds::OpenWorldVariant* v) {
+  v->name = name;
+  v->config = base;
+  v->own_disparity = false;
+  if (name == "default") return "";
+  if (name == "paper") {
+    v->config.mapper = ssm::paperFaithful(base.mapper);
+    return "";
+  }
+  if (name == "no_margin") {
+    v->config.mapper.labelling.drop_off_margin = false;
+    return "";
+  }
+  if (name == "sgbm") {
+    v->config.disparity.matcher = ssm::StereoMatcherType::kSemiGlobal;
+    v->own_disparity = true;
+    return v->config.validate();
+  }
+  // name:key=value;key=value...: the default configuration with these parameters (the keys of
+  // the config files, setCoreParam), for trying a change on the dev split.
+  const std::size_t colon = name.find(':');
+  if (colon != std::string::npos) {
+    v->name = name.substr(0, colon);
+    std::stringstream ss(name.substr(colon + 1));
+    std::string kv;
+    while (std::getline(ss, kv, ';')) {
+      if (kv.empty()) continue;
+      const std::string e = ssm::setCoreParam(kv, &v->config);
+      if (!e.empty()) return "variant " + v->name + ": " + e;
+    }
+    // Its own disparity unless the disparity settings are the first variant's (checked by the
+    // caller, which knows the first variant).
+    v->own_disparity = true;
+    return v->config.validate();
+  }
+  return "unknown variant '" + name +
+         "' (default, paper, no_margin, sgbm, or name:key=value;key=value)";
+}
+
+// Per condition and variant: the scenes' scores.
+struct Cell {
+  std::string condition, variant;
+  std::vector<ds::SceneScore> scenes;
+  std::vector<std::uint64_t> seeds;
+};
+
+double rate(std::uint64_t num, std::uint64_t den) {
+  return den > 0 ? static_cast<double>(num) / den : std::numeric_limits<double>::quiet_NaN();
+}
+double fnRate(const ssm::ConfusionCounts& c) {
+  return rate(c.fn, c.tp + c.fn);
+}
+double fpRate(const ssm::ConfusionCounts& c) {
+  return rate(c.fp, c.fp + c.tn);
+}
+double coverage(const ds::SceneScore& s) {
+  return rate(s.coverage_classified, s.coverage_cells);
+}
+double noSegment(const ds::SceneScore& s) {
+  return rate(s.maps_without_robot_segment, s.maps_after_grace);
+}
+
+struct Stat {
+  ssm::MeanStd ms;
+  double worst = std::numeric_limits<double>::quiet_NaN();
+  std::uint64_t worst_seed = 0;
+};
+
+// Mean +- sd over scenes and the worst scene (highest value; lowest with `low_is_bad`).
+template <typename F>
+Stat stat(const Cell& c, F f, bool low_is_bad = false) {
+  std::vector<double> v;
+  Stat s;
+  for (std::size_t k = 0; k < c.scenes.size(); ++k) {
+    const double x = f(c.scenes[k]);
+    v.push_back(x);
+    if (!std::isfinite(x)) continue;
+    if (!std::isfinite(s.worst) || (low_is_bad ? x < s.worst : x > s.worst)) {
+      s.worst = x;
+      s.worst_seed = c.seeds[k];
+    }
+  }
+  s.ms = ssm::meanStd(v);
+  return s;
+}
+
+std::string pct(const Stat& s) {
+  char buf[96];
+  if (s.ms.n == 0) return "n/a";
+  std::snprintf(buf, sizeof(buf), "%.2f +- %.2f (worst %.1f, seed %llu)", 100.0 * s.ms.mean,
+                100.0 * s.ms.stddev, 100.0 * s.worst,
+                static_cast<unsigned long long>(s.worst_seed));
+  return buf;
+}
+
+void jsonStat(ssm::tools::Json& j, const std::string& k, const Stat& s) {
+  j.key(k).open('{');
+  j.kv("mean", s.ms.mean).kv("sd", s.ms.stddev).kv("n", s.ms.n).kv("worst", s.worst);
+  j.kv("worst_seed", static_cast<std::uint64_t>(s.worst_seed));
+  j.close('}');
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse(argc, argv, &opt)) {
+    usage();
+    return 2;
+  }
+  ssm::StereoFrameProcessorConfig base;
+  for (const std::string& p : opt.params) {
+    const std::string e = ssm::loadCoreParams(p, &base);
+    if (!e.empty()) {
+      std::fprintf(stderr, "%s: %s\n", p.c_str(), e.c_str());
+      return 2;
+    }
+  }
+  for (const std::string& s : opt.sets) {
+    const std::string e = ssm::setCoreParam(s, &base);
+    if (!e.empty()) {
+      std::fprintf(stderr, "--set %s: %s\n", s.c_str(), e.c_str());
+      return 2;
+    }
+  }
+  std::vector<ds::OpenWorldVariant> variants;
+  for (const std::string& name : opt.variants) {
+    ds::OpenWorldVariant v;
+    const std::string e = makeVariant(name, base, &v);
+    if (!e.empty()) {
+      std::fprintf(stderr, "%s\n", e.c_str());
+      return 2;
+    }
+    variants.push_back(v);
+  }
+  // A variant that maps the first one's disparity must not change the disparity settings.
+  std::vector<ds::DegradationConfig> conditions;
+  for (const std::string& c : opt.conditions) {
+    ds::DegradationConfig d;
+    const std::string e = ds::parseDegradation(c == "perfect" ? "none" : c, &d);
+    if (!e.empty()) {
+      std::fprintf(stderr, "condition %s: %s\n", c.c_str(), e.c_str());
+      return 2;
+    }
+    conditions.push_back(d);
+  }
+  ds::OpenWorldRunOptions run;
+  run.max_frames = opt.max_frames;
+  if (!opt.image_frames.empty()) {
+    run.image_dir = opt.out + "/images";
+    run.image_frames = opt.image_frames;
+    if (!ssm::makeDirs(run.image_dir)) {
+      std::fprintf(stderr, "cannot create %s\n", run.image_dir.c_str());
+      return 2;
+    }
+  }
+  run.scoring.planning_radius = base.mapper.segmentation.planning_radius;
+  run.scoring.min_range = base.mapper.grid.min_range;
+  run.scoring.max_range = base.mapper.grid.max_range;
+  run.scoring.robot_height = base.mapper.height_map.robot_height;
+  run.ground_truth.theta_max_deg = base.mapper.labelling.max_slope_deg;
+  run.ground_truth.theta_t_deg = base.mapper.labelling.level_slope_deg;
+  run.ground_truth.h_t = base.mapper.labelling.max_step_height;
+  run.ground_truth.robot_height = base.mapper.height_map.robot_height;
+  run.ground_truth.resolution = base.mapper.grid.voxel_size;
+
+  const std::uint64_t seed_base = opt.split == "report" ? kReportSeedBase : kDevSeedBase;
+  std::vector<Cell> cells;
+  for (const std::string& c : opt.conditions)
+    for (const ds::OpenWorldVariant& v : variants)
+      cells.push_back(Cell{c, v.name, {}, {}});
+  std::vector<std::string> scene_lines;
+  int failures = 0;
+
+  // Work items: (condition, scene); each runs every variant on the same frames.
+  struct Item {
+    std::size_t condition;
+    int scene;
+  };
+  std::vector<Item> items;
+  for (std::size_t c = 0; c < conditions.size(); ++c)
+    for (int k = 0; k < opt.scenes; ++k)
+      items.push_back(Item{c, k});
+  std::vector<ds::OpenWorldSceneResult> results(items.size());
+  std::atomic<std::size_t> next{0};
+  std::mutex print_mutex;
+  auto worker = [&]() {
+    for (;;) {
+      const std::size_t i = next++;
+      if (i >= items.size()) return;
+      const std::uint64_t seed = seed_base + static_cast<std::uint64_t>(opt.first + items[i].scene);
+      ds::ProceduralScene scene;
+      const std::string e = ds::generateProceduralScene(seed, ds::ProceduralConfig(), &scene);
+      if (!e.empty()) {
+        results[i].seed = seed;
+        results[i].error = "generator: " + e;
+      } else {
+        results[i] = ds::runOpenWorldScene(scene, conditions[items[i].condition], variants, run);
+      }
+      if (!opt.quiet) {
+        std::lock_guard<std::mutex> lock(print_mutex);
+        const ds::OpenWorldSceneResult& r = results[i];
+        std::fprintf(stderr, "[%zu/%zu] %s seed %llu (%s): %d frames, %.0f s%s%s\n", i + 1,
+                     items.size(), opt.conditions[items[i].condition].c_str(),
+                     static_cast<unsigned long long>(seed), r.description.c_str(), r.frames,
+                     r.seconds, r.error.empty() ? "" : ", ERROR: ", r.error.c_str());
+        if (r.error.empty()) {
+          for (std::size_t v = 0; v < variants.size(); ++v) {
+            const ds::SceneScore& s = r.scores[v];
+            std::fprintf(stderr,
+                         "    %-10s FN %5.2f %% FP %5.2f %% (tol 1) coverage %5.1f %% no seg "
+                         "%4.1f %% forgotten %d obstacles missed %d/%d\n",
+                         variants[v].name.c_str(), 100 * fnRate(s.tol1), 100 * fpRate(s.tol1),
+                         100 * coverage(s), 100 * noSegment(s), s.forgotten_cells,
+                         s.obstacles_missed_lenient, s.obstacles_in_view);
+            for (const std::string& m : s.misses)
+              std::fprintf(stderr, "        missed %s\n", m.c_str());
+          }
+        }
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 0; j < opt.jobs; ++j)
+    threads.emplace_back(worker);
+  for (std::thread& t : threads)
+    t.join();
+
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const ds::OpenWorldSceneResult& r = results[i];
+    if (!r.error.empty()) {
+      ++failures;
+      std::fprintf(stderr, "seed %llu: %s\n", static_cast<unsigned long long>(r.seed),
+                   r.error.c_str());
+      continue;
+    }
+    for (std::size_t v = 0; v < variants.size(); ++v) {
+      Cell& cell = cells[items[i].condition * variants.size() + v];
+      cell.scenes.push_back(r.scores[v]);
+      cell.seeds.push_back(r.seed);
+      const ds::SceneScore& s = r.scores[v];
+      char line[512];
+      std::snprintf(
+          line, sizeof(line), "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d",
+          cell.condition.c_str(), cell.variant.c_str(), static_cast<unsigned long long>(r.seed),
+          r.description.c_str(), s.maps, fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1),
+          fpRate(s.tol1), coverage(s), noSegment(s), s.forgotten_cells, s.obstacles_in_view,
+          s.obstacles_missed_strict, s.obstacles_missed_lenient);
+      scene_lines.push_back(line);
+    }
+  }
+
+  if (!ssm::makeDirs(opt.out)) {
+    std::fprintf(stderr, "cannot create %s\n", opt.out.c_str());
+    return 2;
+  }
+  {
+    std::ofstream csv(opt.out + "/scenes.csv");
+    csv << "condition,variant,seed,scene,maps,fn_tol0,fp_tol0,fn_tol1,fp_tol1,coverage,"
+           "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
+           "obstacles_missed_lenient\n";
+    for (const std::string& l : scene_lines)
+      csv << l << "\n";
+  }
+
+  static const char* kClassNames[ds::kHazardClassCount] = {
+      "none", "drop_off", "step_up", "steep_ramp", "gentle_ramp", "obstacle", "overhang"};
+  ssm::tools::Json j;
+  j.open('{');
+  j.kv("split", opt.split).kv("first_seed", static_cast<std::uint64_t>(seed_base + opt.first));
+  j.kv("scenes", opt.scenes);
+  j.key("cells").open('[');
+  std::ostringstream md;
+  md << "# Open-world evaluation, " << opt.split << " split\n\n"
+     << "Seeds " << seed_base + opt.first << " .. " << seed_base + opt.first + opt.scenes - 1
+     << " (" << opt.scenes << " scenes per condition"
+     << (opt.split == "report" ? "; the report split: no tuning ever looks at it" : "")
+     << "). Rates in %: mean +- sd over scenes (each scene's rate from sums over its maps), "
+        "worst scene. tol 1 = one cell of tolerance at label boundaries.\n\n";
+  md << "| condition | variant | scenes | FN tol 0 | FN tol 1 | FP tol 0 | FP tol 1 | coverage | "
+        "maps without robot segment | forgotten obstacle cells | obstacles missed (strict / after "
+     << run.scoring.obstacle_lenient_frames
+     << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+  std::ostringstream classes_md;
+  classes_md << "\n## Per hazard class (tol 1)\n\n| condition | variant | class | FN | FP "
+                "|\n|---|---|---|---|---|\n";
+  for (const Cell& c : cells) {
+    const Stat fn0 = stat(c, [](const ds::SceneScore& s) { return fnRate(s.tol0); });
+    const Stat fn1 = stat(c, [](const ds::SceneScore& s) { return fnRate(s.tol1); });
+    const Stat fp0 = stat(c, [](const ds::SceneScore& s) { return fpRate(s.tol0); });
+    const Stat fp1 = stat(c, [](const ds::SceneScore& s) { return fpRate(s.tol1); });
+    const Stat cov = stat(c, coverage, true);
+    const Stat seg = stat(c, noSegment);
+    ds::SceneScore total;
+    for (const ds::SceneScore& s : c.scenes)
+      total += s;
+    md << "| " << c.condition << " | " << c.variant << " | " << c.scenes.size() << " | " << pct(fn0)
+       << " | " << pct(fn1) << " | " << pct(fp0) << " | " << pct(fp1) << " | " << pct(cov) << " | "
+       << pct(seg) << " | " << total.forgotten_cells << " | " << total.obstacles_missed_strict
+       << " / " << total.obstacles_missed_lenient << " / " << total.obstacles_in_view << " |\n";
+    j.open('{');
+    j.kv("condition", c.condition)
+        .kv("variant", c.variant)
+        .kv("scenes", static_cast<int>(c.scenes.size()));
+    jsonStat(j, "fn_tol0", fn0);
+    jsonStat(j, "fn_tol1", fn1);
+    jsonStat(j, "fp_tol0", fp0);
+    jsonStat(j, "fp_tol1", fp1);
+    jsonStat(j, "coverage", cov);
+    jsonStat(j, "maps_without_robot_segment", seg);
+    j.kv("forgotten_cells", total.forgotten_cells).kv("forgotten_events", total.forgotten_events);
+    j.kv("obstacles", total.obstacles).kv("obstacles_in_view", total.obstacles_in_view);
+    j.kv("obstacles_missed_strict", total.obstacles_missed_strict);
+    j.kv("obstacles_missed_lenient", total.obstacles_missed_lenient);
+    j.kv("obstacle_maps_strict", total.obstacle_maps_strict);
+    j.kv("obstacle_maps_missed_strict", total.obstacle_maps_missed_strict);
+    j.kv("obstacle_maps_lenient", total.obstacle_maps_lenient);
+    j.kv("obstacle_maps_missed_lenient", total.obstacle_maps_missed_lenient);
+    j.kv("obstacle_safe_cells", total.obstacle_safe_cells);
+    j.key("classes").open('{');
+    for (int k = 1; k < ds::kHazardClassCount; ++k) {
+      const Stat cfn = stat(c, [k](const ds::SceneScore& s) { return fnRate(s.by_class[k]); });
+      const Stat cfp = stat(c, [k](const ds::SceneScore& s) { return fpRate(s.by_class[k]); });
+      j.key(kClassNames[k]).open('{');
+      jsonStat(j, "fn", cfn);
+      jsonStat(j, "fp", cfp);
+      j.close('}');
+      classes_md << "| " << c.condition << " | " << c.variant << " | " << kClassNames[k] << " | "
+                 << pct(cfn) << " | " << pct(cfp) << " |\n";
+    }
+    j.close('}');
+    j.key("misses").open('[');
+    for (const std::string& m : total.misses)
+      j.val(m);
+    j.close(']');
+    j.close('}');
+  }
+  j.close(']');
+  j.kv("failures", failures);
+  j.close('}');
+  std::ofstream(opt.out + "/metrics.json") << j.str() << "\n";
+  std::ofstream(opt.out + "/report.md") << md.str() << classes_md.str();
+  std::printf("%s", md.str().c_str());
+  std::printf("%s", classes_md.str().c_str());
+  if (failures > 0) std::fprintf(stderr, "%d scene runs failed\n", failures);
+  return failures > 0 ? 1 : 0;
+}
