@@ -19,6 +19,9 @@ std::string GroundSegmentationConfig::validate() const {
   if (!std::isfinite(seed_radius) || seed_radius < 0.0 || seed_radius > 1000.0) {
     return "seed_radius must be in [0, 1000] m";
   }
+  if (!std::isfinite(footprint_radius) || footprint_radius < 0.0 || footprint_radius > 5.0) {
+    return "footprint_radius must be in [0, 5] m (0 = off)";
+  }
   if (island_max_span < 0 || island_max_span > 1000) {
     return "island_max_span must be in [0, 1000] voxels";
   }
@@ -64,6 +67,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   s.segment_height.clear();
   s.segment_island.clear();
   s.non_traversable.clear();
+  s.footprint.assign(n, 0);
   if (!std::isfinite(voxel_size) || voxel_size <= 0.0) return false;
 
   // Alg. 1 step 3: cells farther than R_max from the robot's cell are "not to be examined".
@@ -85,6 +89,27 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     }
   }
 
+  // The robot's footprint: ground at the base's height where nothing was observed
+  // (GroundSegmentationConfig::footprint_radius).
+  if (config_.footprint_radius > 0.0) {
+    const long long f2 = radiusSquaredCells(config_.footprint_radius, voxel_size);
+    const long long fc = static_cast<long long>(std::floor(std::sqrt(static_cast<double>(f2))));
+    for (long long v = std::max<long long>(s.min_v, robot.v - fc);
+         v <= std::min<long long>(s.min_v + s.height - 1, robot.v + fc); ++v) {
+      for (long long u = std::max<long long>(s.min_u, robot.u - fc);
+           u <= std::min<long long>(s.min_u + s.width - 1, robot.u + fc); ++u) {
+        const long long du = u - robot.u, dv = v - robot.v;
+        if (du * du + dv * dv > f2) continue;
+        const int cell = s.index(static_cast<int>(u), static_cast<int>(v));
+        if (s.examined[cell] && hm.atIndex(cell) == HeightMap::kNoHeight) s.footprint[cell] = 1;
+      }
+    }
+  }
+  // Heights as Alg. 1 sees them: the height map's, the base's on footprint cells.
+  const std::int32_t robot_w = robot.w;
+  auto heightOf = [&](int cell) { return s.footprint[cell] ? robot_w : hm.atIndex(cell); };
+  auto lowestOf = [&](int cell) { return s.footprint[cell] ? robot_w : hm.lowestAtIndex(cell); };
+
   // Seed of the robot's segment (Alg. 1 steps 2 and 5, with the seed rule of the config):
   // least height difference to the robot's base first, then nearest, then scan order.
   const int w_t = config_.height_tolerance;
@@ -103,7 +128,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
         const long long d2 = du * du + dv * dv;
         if (d2 > s2) continue;
         const int cell = s.index(static_cast<int>(u), static_cast<int>(v));
-        const std::int32_t w = hm.atIndex(cell);
+        const std::int32_t w = heightOf(cell);
         if (w == HeightMap::kNoHeight || !s.examined[cell]) continue;
         const long long dw = std::llabs(static_cast<long long>(w) - robot.w);
         if (dw > w_t) continue;
@@ -132,13 +157,13 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   // an island must not overrule that.
   auto groundLike = [&](int cell) {
     if (locked_[cell]) return false;
-    const std::int32_t w = hm.atIndex(cell);
-    if (static_cast<long long>(w) - hm.lowestAtIndex(cell) > max_span) return false;
+    const std::int32_t w = heightOf(cell);
+    if (static_cast<long long>(w) - lowestOf(cell) > max_span) return false;
     const int u = cell % w_cells, v = cell / w_cells;
     for (int j = 0; j < 8; ++j) {
       const int un = u + kDu[j], vn = v + kDv[j];
       if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
-      const std::int32_t wn = hm.atIndex(vn * w_cells + un);
+      const std::int32_t wn = heightOf(vn * w_cells + un);
       if (wn != HeightMap::kNoHeight && std::llabs(static_cast<long long>(wn) - w) > w_t)
         return false;
     }
@@ -153,7 +178,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     while (c >= 0) {
       // Step 5: new segment S_k holding cell c.
       const int k = s.numSegments();
-      const std::int32_t wk = hm.atIndex(c);
+      const std::int32_t wk = heightOf(c);
       s.segment_height.push_back(wk);
       s.segment_island.push_back(island ? 1 : 0);
       s.segment_of[c] = k;
@@ -170,7 +195,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
           if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
           const int cn = vn * w_cells + un;
           if (!s.examined[cn]) continue;
-          const std::int32_t wn = hm.atIndex(cn);
+          const std::int32_t wn = heightOf(cn);
           if (wn == HeightMap::kNoHeight) continue;
           compared_[cn] = 1;
           if (!admissible(cn)) continue;
@@ -210,7 +235,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     for (int cell = 0; cell < n; ++cell) {
       if (!s.examined[cell] || s.segment_of[cell] >= 0 || locked_[cell] || compared_[cell])
         continue;
-      if (hm.atIndex(cell) == HeightMap::kNoHeight || !groundLike(cell)) continue;
+      if (heightOf(cell) == HeightMap::kNoHeight || !groundLike(cell)) continue;
       grow(cell, true);
     }
   }

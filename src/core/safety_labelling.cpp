@@ -48,6 +48,9 @@ std::string SafetyLabellingConfig::validate() const {
     return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
   }
   if (max_gap_cells < 0 || max_gap_cells > 10) return "max_gap_cells must be in [0, 10]";
+  if (!std::isfinite(footprint_bridge) || footprint_bridge < 0.0 || footprint_bridge > 10.0) {
+    return "footprint_bridge must be in [0, 10] m (0 = off)";
+  }
   if (!std::isfinite(drop_off_radius) || drop_off_radius < 0.0 || drop_off_radius > 10.0) {
     return "drop_off_radius must be in [0, 10] m";
   }
@@ -141,9 +144,11 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   const int gap = config_.max_gap_cells;
   const int reach = gap + 1;
   const bool measured = config_.measured_step_test;
+  // Local surface heights are needed by the step test and by the small-obstacle rule.
+  const bool heights = measured || config_.small_obstacles;
   m.segments.resize(nseg);
   boundary_.assign(n, 0);
-  if (measured) local_z_.assign(n, kLocalZPending);
+  if (heights) local_z_.assign(n, kLocalZPending);
   contacts_.clear();
   for (int k = 0; k < nseg; ++k) {
     SegmentInfo& info = m.segments[k];
@@ -155,13 +160,15 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     info.plane = k < static_cast<int>(planes.size()) ? planes[k] : GroundPlane();
     info.reachable = false;
     info.island = k < static_cast<int>(segs.segment_island.size()) && segs.segment_island[k] != 0;
+    info.obstacle = false;
     const GroundPlane* ps = planeOf(k);
     for (const int c : info.cells) {
       const int u = c % width, v = c / width;
       int nb_seg[kMaxNeighbourSegments];
       bool nb_close[kMaxNeighbourSegments];  // a cell of it has a measured height within h_T
+      float nb_rise[kMaxNeighbourSegments];  // largest rise of c over its cells
       int num_nb_seg = 0;
-      const float zc = measured ? localSurfaceHeight(hm, segs, c) : 0.0f;
+      const float zc = heights ? localSurfaceHeight(hm, segs, c) : 0.0f;
       // Records cell cn of segment r as a neighbour of c.
       auto addNeighbour = [&](int r, int cn) {
         int j = 0;
@@ -170,11 +177,16 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         if (j == num_nb_seg) {
           if (num_nb_seg >= kMaxNeighbourSegments) return;
           nb_seg[num_nb_seg] = r;
+          nb_rise[num_nb_seg] = std::numeric_limits<float>::quiet_NaN();
           nb_close[num_nb_seg++] = false;
         }
-        if (measured) {
+        if (heights) {
           const float zn = localSurfaceHeight(hm, segs, cn);
-          nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: false
+          if (measured) {
+            nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: no
+          }
+          const float rise = zc - zn;
+          if (!(nb_rise[j] >= rise)) nb_rise[j] = rise;  // NaN-safe max
         }
       };
       bool interior = true;
@@ -228,8 +240,108 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
                nb_close[j];
         }
-        contacts_.push_back(Contact{k, nb_seg[j], ok});
+        contacts_.push_back(Contact{k, nb_seg[j], ok, nb_rise[j], c});
       }
+    }
+  }
+
+  // SafetyLabellingConfig::footprint_bridge: the robot's footprint and the ground beyond the
+  // camera's blind zone are neighbours across unobserved cells.
+  const int rs = segs.robot_segment;
+  if (config_.footprint_bridge > 0.0 && rs >= 0 && planeOf(rs) != nullptr &&
+      static_cast<int>(segs.footprint.size()) == n) {
+    bridge_from_.clear();
+    int u_lo = width, u_hi = -1, v_lo = m.height, v_hi = -1;
+    for (const int c : m.segments[rs].cells) {
+      if (!segs.footprint[c] || !boundary_[c]) continue;
+      bridge_from_.push_back(c);
+      u_lo = std::min(u_lo, c % width);
+      u_hi = std::max(u_hi, c % width);
+      v_lo = std::min(v_lo, c / width);
+      v_hi = std::max(v_hi, c / width);
+    }
+    const int reach_cells = static_cast<int>(std::floor(config_.footprint_bridge / l + 1e-9));
+    const long long reach2 = static_cast<long long>(reach_cells) * reach_cells;
+    bridge_to_.clear();
+    if (!bridge_from_.empty() && reach_cells >= 2) {
+      for (int v = std::max(0, v_lo - reach_cells); v <= std::min(m.height - 1, v_hi + reach_cells);
+           ++v) {
+        for (int u = std::max(0, u_lo - reach_cells); u <= std::min(width - 1, u_hi + reach_cells);
+             ++u) {
+          const int c = v * width + u;
+          const int r = segs.segment_of[c];
+          if (r >= 0 && r != rs && boundary_[c]) bridge_to_.push_back(c);
+        }
+      }
+    }
+    const GroundPlane* prs = planeOf(rs);
+    // A cell already next to a segment (touching, or across max_gap_cells) keeps that one
+    // contact: a border cell counts once towards num_T.
+    const std::size_t main_contacts = contacts_.size();
+    auto hasContact = [&](int cell, int s, int r) {
+      return std::any_of(contacts_.begin(), contacts_.begin() + main_contacts,
+                         [&](const Contact& k) { return k.cell == cell && k.s == s && k.r == r; });
+    };
+    // Only unobserved cells (and the footprint's own) between f and c.
+    auto open = [&](int f, int c) {
+      const int uf = f % width, vf = f / width, uc = c % width, vc = c / width;
+      const int du = uc - uf, dv = vc - vf;
+      const int steps = std::max(std::abs(du), std::abs(dv));
+      for (int t = 1; t < steps; ++t) {
+        const int ut = uf + static_cast<int>(std::lround(static_cast<double>(du) * t / steps));
+        const int vt = vf + static_cast<int>(std::lround(static_cast<double>(dv) * t / steps));
+        const int ct = vt * width + ut;
+        if (hm.atIndex(ct) != HeightMap::kNoHeight) return false;
+        if (segs.segment_of[ct] >= 0 && !segs.footprint[ct]) return false;
+      }
+      return true;
+    };
+    // For each far boundary cell: does it see the footprint, crossably (h_T at the far cell)?
+    // For each footprint boundary cell: which segments does it see, crossably?
+    std::vector<std::pair<int, int>> seen;  // (footprint cell, segment) with its best ok
+    for (const int c : bridge_to_) {
+      const int r = segs.segment_of[c];
+      const GroundPlane* pr = planeOf(r);
+      const double xc = (m.min_u + c % width) * l, yc = (m.min_v + c / width) * l;
+      const int ok = pr != nullptr && std::abs(prs->heightAt(xc, yc) - pr->heightAt(xc, yc)) <
+                                          config_.max_step_height;
+      bool any = false;
+      for (const int f : bridge_from_) {
+        const long long du = c % width - f % width, dv = c / width - f / width;
+        if (du * du + dv * dv > reach2 || std::max(std::llabs(du), std::llabs(dv)) < 2) continue;
+        if (!open(f, c)) continue;
+        any = true;
+        seen.emplace_back(f, ok ? r : -1 - r);
+      }
+      if (any && !hasContact(c, r, rs)) {
+        contacts_.push_back(Contact{r, rs, ok, std::numeric_limits<float>::quiet_NaN(), c});
+      }
+    }
+    // The footprint's side: one contact per footprint cell and segment, ok when any of its
+    // lines to that segment is.
+    std::sort(seen.begin(), seen.end());
+    for (std::size_t i = 0; i < seen.size();) {
+      const int f = seen[i].first;
+      std::size_t j = i;
+      while (j < seen.size() && seen[j].first == f)
+        ++j;
+      // Segments seen from f: r (ok) or -1 - r (not ok).
+      for (std::size_t a = i; a < j; ++a) {
+        const int code = seen[a].second;
+        const int r = code >= 0 ? code : -1 - code;
+        bool first = true, ok = false;
+        for (std::size_t b = i; b < j; ++b) {
+          const int other = seen[b].second >= 0 ? seen[b].second : -1 - seen[b].second;
+          if (other != r) continue;
+          if (b < a) first = false;
+          ok = ok || seen[b].second >= 0;
+        }
+        if (first && !hasContact(f, rs, r)) {
+          contacts_.push_back(
+              Contact{rs, r, ok ? 1 : 0, std::numeric_limits<float>::quiet_NaN(), f});
+        }
+      }
+      i = j;
     }
   }
 
@@ -242,12 +354,14 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   for (std::size_t i = 0; i < contacts_.size();) {
     std::size_t j = i;
     int ok = 0;
+    float rise = std::numeric_limits<float>::quiet_NaN();
     while (j < contacts_.size() && contacts_[j].s == contacts_[i].s &&
            contacts_[j].r == contacts_[i].r) {
       ok += contacts_[j].ok;
+      if (!(rise >= contacts_[j].rise)) rise = contacts_[j].rise;  // NaN-safe max
       ++j;
     }
-    edges_.push_back(Edge{contacts_[i].r, ok});
+    edges_.push_back(Edge{contacts_[i].r, ok, rise});
     ++edge_begin_[contacts_[i].s + 1];
     i = j;
   }
@@ -256,19 +370,23 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
 
   // Alg. 2 steps 1-4.
   seg_state_.assign(nseg, kStUnexamined);
+  small_.assign(nseg, 0);
   for (int k = 0; k < nseg; ++k) {
     const SegmentInfo& info = m.segments[k];
     const GroundPlane* p = planeOf(k);
     if (p == nullptr) {
       seg_state_[k] = kStUnknown;  // no plane, nothing to judge the segment by
+      small_[k] = 1;
       continue;
     }
     if (p->slope_deg > config_.max_slope_deg) seg_state_[k] = kStNonGround;  // step 2
     if (static_cast<int>(info.cells.size()) < config_.min_segment_cells) {   // step 3
       seg_state_[k] = kStUnknown;
+      small_[k] = 1;
     }
     if (info.num_interior < config_.thin_ratio * info.num_boundary) {  // step 4
       seg_state_[k] = kStUnknown;
+      small_[k] = 1;
     }
   }
 
@@ -277,7 +395,6 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   // compare its neighbours with and nothing is reachable.
   neighbours_examined_.assign(nseg, 0);
   to_examine_.clear();
-  const int rs = segs.robot_segment;
   if (rs >= 0 && planeOf(rs) != nullptr) {
     seg_state_[rs] = kStSafe;
     to_examine_.push_back(rs);
@@ -298,6 +415,21 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       }
     }
     neighbours_examined_[s] = 1;
+  }
+
+  // SafetyLabellingConfig::small_obstacles: what steps 3-4 left Unknown but stands above the safe
+  // ground beside it by more than h_T is the top of an obstacle.
+  if (config_.small_obstacles) {
+    for (int k = 0; k < nseg; ++k) {
+      if (!small_[k] || seg_state_[k] != kStUnknown || k == rs) continue;
+      for (int e = edge_begin_[k]; e < edge_begin_[k + 1]; ++e) {
+        if (seg_state_[edges_[e].r] == kStSafe && edges_[e].rise > config_.max_step_height) {
+          seg_state_[k] = kStNonGround;
+          m.segments[k].obstacle = true;
+          break;
+        }
+      }
+    }
   }
 
   // Steps 27-28.
@@ -341,6 +473,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     margin_.clear();
     for (int k = 0; k < nseg; ++k) {
       if (!isSafe(m.segments[k].label)) continue;
+      const GroundPlane& pk = m.segments[k].plane;
       for (const int c : m.segments[k].cells) {
         if (!boundary_[c]) continue;
         const float zc = localSurfaceHeight(hm, segs, c);
@@ -353,7 +486,11 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
           const float zn = segs.segment_of[cn] >= 0 ? localSurfaceHeight(hm, segs, cn)
                                                     : hm.surfaceHeightAtIndex(cn);
-          if (zn < zc - drop) {  // NaN: false
+          // A drop is a discontinuity: lower than the cell's own surface and than the
+          // segment's plane carried on to the neighbour. At a ramp's foot the ramp's plane
+          // comes down to the floor (its local surface, averaged up the slope, does not).
+          const double z_plane = pk.heightAt((m.min_u + un) * l, (m.min_v + vn) * l);
+          if (zn < zc - drop && zn < z_plane - drop) {  // NaN: false
             margin_.push_back(c);
             break;
           }

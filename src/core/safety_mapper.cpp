@@ -17,6 +17,9 @@ double msSince(Clock::time_point t0) {
 }
 
 constexpr double kDegToRad = 0.017453292519943295;
+// SafetyMapperConfig::relevel: a reference cell's measured surface must lie this close to the
+// robot's level ground [m] (1.5 cm: the measured heights' noise on a level floor).
+constexpr double kRelevelCellTolerance = 0.015;
 
 std::string prefixed(const char* name, const std::string& err) {
   return err.empty() ? err : std::string(name) + "." + err;
@@ -49,6 +52,7 @@ std::string SafetyMapperConfig::validate() const {
   if (!(err = prefixed("segmentation", segmentation.validate())).empty()) return err;
   if (!(err = prefixed("plane_fit", plane_fit.validate())).empty()) return err;
   if (!(err = prefixed("labelling", labelling.validate())).empty()) return err;
+  if (!(err = prefixed("relevel", relevel.validate())).empty()) return err;
   if (!std::isfinite(stationary_translation) || stationary_translation < 0.0 ||
       stationary_translation > 100.0) {
     return "stationary_translation must be in [0, 100] m";
@@ -74,6 +78,11 @@ std::string SafetyMapperConfig::validate() const {
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
   c.segmentation.segment_islands = false;  // 000 Alg. 1 grows from the robot's island only
+  c.segmentation.footprint_radius = 0.0;   // 000 seeds on observed ground only
+  c.labelling.small_obstacles = false;     // 000 Alg. 2 steps 3-4: small or thin is Unknown
+  c.labelling.footprint_bridge = 0.0;
+  c.obstacle_memory = false;               // 000 recomputes the map from the grid
+  c.relevel.enabled = false;               // 000 takes the pose from odometry
   c.labelling.max_gap_cells = 0;           // 000 Sec. VI: neighbours touch
   c.labelling.measured_step_test = false;  // 000 Alg. 2 steps 15-17: planes only
   c.labelling.drop_off_margin = false;     // 000 Sec. VI: annotation only
@@ -149,6 +158,8 @@ std::string SafetyMapper::reconfigure(const SafetyMapperConfig& config, bool* gr
 
 void SafetyMapper::reset() {
   grid_.clear();
+  obstacle_memory_.clear();
+  cells_remembered_ = 0;
   observation_age_.clear();
   latest_time_ = kNoTime;
   cells_aged_ = 0;
@@ -185,7 +196,8 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
 }
 
 void SafetyMapper::observe(const std::vector<Eigen::Vector3f>& points_sensor,
-                           const Eigen::Isometry3f& T_fixed_sensor, double stamp) {
+                           const Eigen::Isometry3f& T_fixed_sensor,
+                           const Eigen::Vector3f& robot_base_position, double stamp) {
   if (!(config_.max_cell_age > 0.0) || !std::isfinite(stamp)) return;
   const float lo = static_cast<float>(config_.grid.min_range);
   const float hi = static_cast<float>(config_.grid.max_range);
@@ -195,6 +207,22 @@ void SafetyMapper::observe(const std::vector<Eigen::Vector3f>& points_sensor,
     if (range < lo || range > hi) continue;  // the grid ignores these points as well
     const VoxelIndex i = grid_.indexOf(T_fixed_sensor * p);
     if (grid_.contains(i)) observation_age_.observe(i.u, i.v, stamp);
+  }
+  // The robot stands on its footprint (GroundSegmentationConfig::footprint_radius): vouched for
+  // by the robot itself at every frame.
+  const double r = config_.segmentation.footprint_radius;
+  if (r > 0.0 && robot_base_position.allFinite()) {
+    const double l = config_.grid.voxel_size;
+    const VoxelIndex c = grid_.indexOf(robot_base_position);
+    const int rc = static_cast<int>(std::floor(r / l + 1e-6));
+    const double r2 = (r / l) * (r / l) + 1e-6;
+    for (int dv = -rc; dv <= rc; ++dv) {
+      for (int du = -rc; du <= rc; ++du) {
+        if (du * du + dv * dv > r2) continue;
+        const VoxelIndex i{c.u + du, c.v + dv, c.w};
+        if (grid_.contains(i)) observation_age_.observe(i.u, i.v, stamp);
+      }
+    }
   }
 }
 
@@ -225,19 +253,47 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   // 000 Sec. IV: discard frames taken while the camera has not moved. The camera still sees
   // what it saw: the columns its points fall into count as observed (observation_age.h).
   if (isStationary(T_fixed_sensor)) {
-    observe(points_sensor, T_fixed_sensor, stamp);
+    observe(points_sensor, T_fixed_sensor, robot_base_position, stamp);
     if (std::isfinite(stamp)) r.cells_aged = ageSafetyMap(stamp);
     return skip(FrameStatus::kStationary);
   }
 
   const Clock::time_point t0 = Clock::now();
+  // SafetyMapperConfig::relevel: the pose corrected on the previous map's robot segment.
+  Eigen::Isometry3f T_frame = T_fixed_sensor;
+  const int rs = map_.robot_segment;
+  if (config_.relevel.enabled && rs >= 0 && rs < static_cast<int>(map_.segments.size()) &&
+      map_.segments[rs].plane.valid &&
+      static_cast<int>(segments_.footprint.size()) == map_.width * map_.height) {
+    // The robot's ground in the odometry frame is the level plane through its base (a planar
+    // robot, 000 Sec. I-A; odometry knows no pitch or roll): the reference is that plane over the
+    // observed cells of the robot's segment whose measured surface lies on it. Not the segment's
+    // fitted plane: its band also holds the first decimetres of a ramp or of a smear into a
+    // drop, which would tilt the plane and, through it, every later frame.
+    const double l = grid_.config().voxel_size;
+    const float base_z = robot_base_position.z();
+    const SafetyMap& m = map_;
+    const GroundSegments& segs = segments_;
+    const GroundReference reference = [&](float x, float y) {
+      const int u = static_cast<int>(std::lround(x / l)), v = static_cast<int>(std::lround(y / l));
+      if (!m.inside(u, v)) return std::numeric_limits<float>::quiet_NaN();
+      const int c = m.index(u, v);
+      if (m.segment[c] != rs || segs.footprint[c]) return std::numeric_limits<float>::quiet_NaN();
+      if (!(std::abs(height_map_.surfaceHeightAtIndex(c) - base_z) < kRelevelCellTolerance)) {
+        return std::numeric_limits<float>::quiet_NaN();
+      }
+      return base_z;
+    };
+    levelFrame(points_sensor, T_fixed_sensor, reference, config_.relevel, &T_frame, &r.levelling,
+               &levelling_scratch_);
+  }
   // Recentre on the robot before checking the camera: it must lie inside the window that the
   // rays are traced in. A camera outside it means a pose far from the robot (bad extrinsics or
   // localisation), which would paint free space across the map.
   if (!grid_placed_ || config_.scroll_with_robot) {
     // SafetyMapperConfig::grid_look_ahead: along the optical axis projected on the ground.
     Eigen::Vector3f centre = robot_base_position;
-    const Eigen::Vector3f axis = T_fixed_sensor.linear().col(2);
+    const Eigen::Vector3f axis = T_frame.linear().col(2);
     const float horizontal = std::hypot(axis.x(), axis.y());
     if (config_.grid_look_ahead > 0.0 && horizontal > 1e-3f) {
       const float a = static_cast<float>(config_.grid_look_ahead) / horizontal;
@@ -247,11 +303,11 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
     r.voxels_scrolled = grid_.recenter(centre);
     grid_placed_ = true;
   }
-  if (!grid_.contains(grid_.indexOf(T_fixed_sensor.translation()))) {
+  if (!grid_.contains(grid_.indexOf(T_frame.translation()))) {
     return skip(FrameStatus::kCameraOutsideGrid);
   }
-  r.integration = grid_.integrate(points_sensor, T_fixed_sensor);
-  observe(points_sensor, T_fixed_sensor, stamp);
+  r.integration = grid_.integrate(points_sensor, T_frame);
+  observe(points_sensor, T_frame, robot_base_position, stamp);
   if (std::isfinite(stamp) && !(stamp <= latest_time_)) latest_time_ = stamp;
   const double integrate_ms = msSince(t0);
   last_pose_ = T_fixed_sensor;
@@ -265,6 +321,60 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   r.cells_aged = cells_aged_;
   r.status = FrameStatus::kIntegrated;
   return true;
+}
+
+void SafetyMapper::applyObstacleMemory(std::int32_t robot_w) {
+  auto key = [](int u, int v) {
+    return (static_cast<std::int64_t>(u) << 32) ^ static_cast<std::uint32_t>(v);
+  };
+  SafetyMap& m = map_;
+  // Cells that hold an obstacle now: non-traversable columns and small obstacles' tops.
+  for (int v = m.min_v; v < m.min_v + m.height; ++v) {
+    for (int u = m.min_u; u < m.min_u + m.width; ++u) {
+      const int c = m.index(u, v);
+      if (m.labels[c] != SafetyLabel::kNonGround) continue;
+      const int k = m.segment[c];
+      if (k >= 0 && !(k < static_cast<int>(m.segments.size()) && m.segments[k].obstacle)) {
+        continue;  // too steep or unreachable ground: its label follows reachability
+      }
+      // The obstacle is what rises above the robot's base in the column (a column on lower
+      // ground is Non-ground for its reachability); the ground voxel under it is not part of it.
+      const std::int32_t hi = height_map_.atIndex(c);
+      if (hi == HeightMap::kNoHeight || hi <= robot_w) continue;
+      const std::int32_t low = height_map_.lowestAtIndex(c);
+      const std::int32_t lo = hi > low ? std::max(low + 1, robot_w + 1) : hi;
+      ObstacleMark& mark = obstacle_memory_.emplace(key(u, v), ObstacleMark{lo, hi}).first->second;
+      mark.lo = std::min(mark.lo, lo);
+      mark.hi = std::max(mark.hi, hi);
+    }
+  }
+  // Remembered cells: forgotten once free space was observed there (no voxel of the band is
+  // occupied any more) or out of the window; otherwise Non-ground whatever the labelling says.
+  memory_drop_.clear();
+  for (const auto& [k, mark] : obstacle_memory_) {
+    const int u = static_cast<int>(k >> 32);
+    const int v = static_cast<int>(static_cast<std::int32_t>(k & 0xffffffff));
+    if (!m.inside(u, v)) {
+      memory_drop_.push_back(k);
+      continue;
+    }
+    bool occupied = false;
+    for (std::int32_t w = mark.lo; w <= mark.hi && !occupied; ++w)
+      occupied = grid_.isOccupied(VoxelIndex{u, v, w});
+    if (!occupied) {
+      memory_drop_.push_back(k);
+      continue;
+    }
+    const int c = m.index(u, v);
+    if (m.labels[c] == SafetyLabel::kNonGround || m.labels[c] == SafetyLabel::kUnexamined) {
+      continue;
+    }
+    m.labels[c] = SafetyLabel::kNonGround;
+    m.drop_off[c] = 0;
+    ++cells_remembered_;
+  }
+  for (const std::int64_t k : memory_drop_)
+    obstacle_memory_.erase(k);
 }
 
 const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_base_position) {
@@ -287,6 +397,17 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
 
   t = Clock::now();
   plane_fitter_.fitAll(grid_, segments_, &planes_);
+  // GroundSegmentationConfig::footprint_radius: a robot segment seeded on the footprint without
+  // enough points of its own for a plane lies on the plane the robot stands on, the base's.
+  const int rs = segments_.robot_segment;
+  if (finite && rs >= 0 && rs < static_cast<int>(planes_.size()) && !planes_[rs].valid &&
+      !segments_.footprint.empty() && segments_.footprint[segments_.seed_cell]) {
+    GroundPlane& p = planes_[rs];
+    p = GroundPlane();
+    p.valid = true;
+    p.c = robot_base_position.z();
+    p.centroid = robot_base_position.cast<double>();
+  }
   timings_.plane_fit_ms = msSince(t);
 
   t = Clock::now();
@@ -294,6 +415,10 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   if (!finite) {
     map_.robot_u = 0;
     map_.robot_v = 0;
+  }
+  cells_remembered_ = 0;
+  if (config_.obstacle_memory && finite) {
+    applyObstacleMemory(grid_.indexOf(robot_base_position).w);
   }
   // What the map can no longer vouch for, at the latest time seen (observation_age.h).
   cells_aged_ = 0;

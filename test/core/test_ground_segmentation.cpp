@@ -16,6 +16,7 @@ constexpr double kLv = 0.1;
 GroundSegmentationConfig paperConfig() {
   GroundSegmentationConfig c;
   c.segment_islands = false;
+  c.footprint_radius = 0.0;
   return c;
 }
 
@@ -51,7 +52,8 @@ void expectConsistent(const HeightMap& hm, const GroundSegments& s) {
     EXPECT_GT(s.segmentSize(k), 0);
     for (const int* c = s.cellsBegin(k); c != s.cellsEnd(k); ++c) {
       EXPECT_EQ(s.segment_of[*c], k);
-      EXPECT_EQ(hm.atIndex(*c), s.segment_height[k]);
+      // A footprint cell has no observed height: it is ground at the robot's base height.
+      EXPECT_EQ(s.footprint[*c] ? s.robot.w : hm.atIndex(*c), s.segment_height[k]);
       EXPECT_TRUE(s.examined[*c]);
       EXPECT_TRUE(seen.insert(*c).second);
     }
@@ -446,6 +448,48 @@ TEST(GroundSegmentation, ObstacleLikeColumnsDoNotSeedIslands) {
   c.island_max_span = 0;
   ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{0, 1, 0}, kLv, &s));
   EXPECT_EQ(s.segment_of[s.index(9, 1)], -1);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map
+
+namespace stereo_safety_map {
+namespace {
+
+// The robot stands on ground (GroundSegmentationConfig::footprint_radius): with nothing observed
+// near it, its footprint is the robot's segment at the base's height; with the footprint off
+// (000's seed rule) there is no robot segment.
+TEST(GroundSegmentationFootprint, TheFootprintSeedsTheRobotsSegment) {
+  // Observed floor from 1.2 m ahead: farther than the seed radius (1 m).
+  HeightMap hm = fromText({"..............00000", "..............00000", "..............00000",
+                           "..............00000", "..............00000"});
+  GroundSegmentationConfig c;
+  c.footprint_radius = 0.0;
+  GroundSegmentation paper(c);
+  GroundSegments s;
+  ASSERT_TRUE(paper.segment(hm, VoxelIndex{2, 2, 0}, 0.1, &s));
+  EXPECT_EQ(s.robot_segment, -1);
+  c.footprint_radius = 0.2;  // two cells
+  GroundSegmentation ours(c);
+  ASSERT_TRUE(ours.segment(hm, VoxelIndex{2, 2, 0}, 0.1, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_of[s.index(2, 2)], 0);
+  EXPECT_EQ(s.segment_height[0], 0);
+  int footprint = 0;
+  for (int cell = 0; cell < s.numCells(); ++cell) {
+    footprint += s.footprint[cell];
+    if (s.footprint[cell]) {
+      EXPECT_EQ(s.segment_of[cell], 0);
+      EXPECT_EQ(hm.atIndex(cell), HeightMap::kNoHeight);  // the height map is not changed
+    }
+  }
+  EXPECT_EQ(footprint, 13);  // cells within 2 cells of (2, 2)
+  // An observed column in the footprint keeps its height: it is not footprint.
+  hm.set(3, 2, 0);
+  ASSERT_TRUE(ours.segment(hm, VoxelIndex{2, 2, 0}, 0.1, &s));
+  EXPECT_FALSE(s.footprint[s.index(3, 2)]);
+  EXPECT_EQ(s.segment_of[s.index(3, 2)], 0);
 }
 
 }  // namespace

@@ -53,12 +53,15 @@ GroundPlane inclined(double deg, double x0, double z0) {
 GroundSegmentationConfig paperSegmentation() {
   GroundSegmentationConfig c;
   c.segment_islands = false;
+  c.footprint_radius = 0.0;
   return c;
 }
 SafetyLabellingConfig paperLabelling() {
   SafetyLabellingConfig c;
   c.max_gap_cells = 0;
   c.measured_step_test = false;
+  c.small_obstacles = false;
+  c.footprint_bridge = 0.0;
   return c;
 }
 
@@ -297,6 +300,7 @@ TEST(SafetyLabelling, CellMapLabels) {
   HeightMap hm = fromText(rows);
   GroundSegmentationConfig gc;
   gc.planning_radius = 0.4;
+  gc.footprint_radius = 0.0;  // (3, 4) would be the robot's footprint: ground
   GroundSegmentation seg(gc);
   GroundSegments segs;
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{5, 5, 0}, kLv, &segs));
@@ -600,6 +604,132 @@ TEST(SafetyLabelling, MeasuredStepTestIsNotFooledByACurbsFace) {
   ASSERT_TRUE(w.label(SafetyLabellingConfig()));
   EXPECT_EQ(w.at(3, 10), L::kLevel);
   EXPECT_EQ(w.at(15, 10), L::kNonGround);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map
+
+namespace stereo_safety_map {
+namespace {
+
+// Sets the measured surface height of every column with a height to its indexed height times
+// l_v plus `offset` (what the points of a level surface in that voxel would give).
+void setSurfaces(HeightMap* hm, double offset = 0.02) {
+  for (int v = hm->minV(); v < hm->minV() + hm->height(); ++v)
+    for (int u = hm->minU(); u < hm->minU() + hm->width(); ++u)
+      if (hm->at(u, v) != HeightMap::kNoHeight) {
+        hm->setSurfaceHeight(u, v, static_cast<float>(hm->at(u, v) * kLv + offset));
+      }
+}
+
+// The top of a pole (0.2 x 0.2 m, 0.5 m high) seen without the floor right around it: Alg. 1
+// makes it an island segment of 4 cells, which Alg. 2 step 3 calls Unknown (000) and the
+// small-obstacle rule Non-ground (it stands 0.5 m above the safe floor beside it).
+TEST(SafetyLabellingSmallObstacles, APolesTopIsNonGroundNotUnknown) {
+  const std::vector<std::string> rows = {"000000000000", "000000000000", "00000....000",
+                                         "00000.55.000", "00000.55.000", "00000....000",
+                                         "000000000000", "000000000000"};
+  GroundSegmentationConfig sc;  // islands on (ours)
+  sc.footprint_radius = 0.0;
+  World w(rows, 1, 3, 0, sc);
+  setSurfaces(&w.hm);
+  ASSERT_GE(w.segAt(6, 3), 0);
+  ASSERT_NE(w.segAt(6, 3), w.segAt(1, 3));
+  SafetyLabellingConfig c;  // ours: max_gap_cells 2 reaches across the unobserved ring
+  c.footprint_bridge = 0.0;
+  c.small_obstacles = false;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(6, 3), L::kUnknown);  // 000 Alg. 2 step 3
+  EXPECT_EQ(w.at(1, 3), L::kLevel);
+  c.small_obstacles = true;
+  ASSERT_TRUE(w.label(c));
+  for (int v = 3; v <= 4; ++v)
+    for (int u = 6; u <= 7; ++u)
+      EXPECT_EQ(w.at(u, v), L::kNonGround) << u << "," << v;
+  EXPECT_TRUE(w.map.segments[w.segAt(6, 3)].obstacle);
+  EXPECT_EQ(w.at(1, 3), L::kLevel);
+  EXPECT_EQ(w.at(5, 3), L::kUnknown);  // the unobserved ring stays Unknown
+}
+
+// A small patch of ground one voxel up but measured only 3 cm higher (a voxel boundary in the
+// noise) is a small patch of ground, not an obstacle: it stays Unknown.
+TEST(SafetyLabellingSmallObstacles, ASmallPatchOfGroundStaysUnknown) {
+  const std::vector<std::string> rows = {"000000000000", "000000000000", "00000....000",
+                                         "00000.11.000", "00000.11.000", "00000....000",
+                                         "000000000000", "000000000000"};
+  GroundSegmentationConfig sc;
+  sc.footprint_radius = 0.0;
+  World w(rows, 1, 3, 0, sc);
+  setSurfaces(&w.hm, 0.04);
+  w.hm.setSurfaceHeight(6, 3, 0.07f);
+  w.hm.setSurfaceHeight(7, 3, 0.07f);
+  w.hm.setSurfaceHeight(6, 4, 0.07f);
+  w.hm.setSurfaceHeight(7, 4, 0.07f);
+  SafetyLabellingConfig c;
+  c.footprint_bridge = 0.0;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(6, 3), L::kUnknown);
+  EXPECT_FALSE(w.map.segments[w.segAt(6, 3)].obstacle);
+}
+
+// The camera's blind zone: the robot's footprint (cells 0..5 around u = 2) and the floor the
+// camera sees from u = 14 on, nothing observed between. Without the bridge the floor is cut off
+// from the robot (Non-ground); with it the floor is reachable, a floor 20 cm lower is not, and a
+// wall across the blind zone separates.
+std::vector<std::string> blindZone(char floor, char wall = '.') {
+  std::vector<std::string> rows(11, std::string(30, '.'));
+  for (std::string& r : rows) {
+    for (int u = 14; u < 30; ++u)
+      r[u] = floor;
+    r[9] = wall;
+  }
+  return rows;
+}
+
+TEST(SafetyLabellingFootprintBridge, TheFloorBeyondTheBlindZoneIsReachable) {
+  GroundSegmentationConfig sc;  // footprint 0.35 m, islands on
+  World w(blindZone('0'), 2, 5, 0, sc);
+  setSurfaces(&w.hm);
+  ASSERT_EQ(w.segAt(2, 5), w.segs.robot_segment);
+  ASSERT_TRUE(w.segs.footprint[w.segs.index(2, 5)]);
+  ASSERT_NE(w.segAt(20, 5), w.segs.robot_segment);
+  SafetyLabellingConfig c;
+  c.footprint_bridge = 0.0;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(2, 5), L::kLevel);  // the footprint
+  EXPECT_EQ(w.at(20, 5), L::kNonGround);
+  c.footprint_bridge = 1.5;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(20, 5), L::kLevel);
+  EXPECT_EQ(w.at(10, 5), L::kUnknown);  // the blind zone itself
+}
+
+TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
+  GroundSegmentationConfig sc;
+  {
+    World w(blindZone('b'), 2, 5, 0, sc);  // 20 cm lower
+    setSurfaces(&w.hm);
+    ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+    EXPECT_EQ(w.at(20, 5), L::kNonGround);
+  }
+  {
+    World w(blindZone('0', '9'), 2, 5, 0, sc);  // a wall across the blind zone at u = 9
+    setSurfaces(&w.hm);
+    ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+    EXPECT_EQ(w.at(20, 5), L::kNonGround);
+    EXPECT_FALSE(isSafe(w.at(9, 5)));
+  }
+  {
+    // Farther than the bridge: floor from u = 25 (2 m of blind zone).
+    std::vector<std::string> rows = blindZone('0');
+    for (std::string& r : rows)
+      for (int u = 14; u < 25; ++u)
+        r[u] = '.';
+    World w(rows, 2, 5, 0, sc);
+    setSurfaces(&w.hm);
+    ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+    EXPECT_EQ(w.at(27, 5), L::kNonGround);
+  }
 }
 
 }  // namespace

@@ -432,13 +432,16 @@ TEST(SafetyMapper, OverhangAboveTheRobotIsIgnoredBelowItIsNonGround) {
   EXPECT_GT(countLabel(mt->safetyMap(), under, L::kNonGround), 20) << ascii(mt->safetyMap());
 }
 
+// 000 Alg. 2 steps 3-4 (small_obstacles off): small and thin segments are Unknown.
 TEST(SafetyMapper, SmallAndThinSegmentsAreUnknown) {
   World w;
   // A 0.08 m square block 0.1 m high inside one cell (small segment) and a rail one cell wide,
   // 0.8 m long, 0.1 m high (thin segment).
   w.boxes.push_back({{1.96, -0.54, -0.1}, {2.04, -0.46, 0.1}});
   w.boxes.push_back({{2.46, 0.05, -0.1}, {2.54, 0.85, 0.1}});
-  const auto mapper = run(drive(w));
+  SafetyMapperConfig paper_rule;
+  paper_rule.labelling.small_obstacles = false;
+  const auto mapper = run(drive(w), paper_rule);
   const SafetyMap& m = mapper->safetyMap();
   const int small = m.segment[m.index(20, -5)];
   ASSERT_GE(small, 0) << ascii(m);
@@ -456,6 +459,21 @@ TEST(SafetyMapper, SmallAndThinSegmentsAreUnknown) {
   for (int c : t.cells)
     EXPECT_EQ(m.labels[c], L::kUnknown);
 
+  const auto around = cellsIn(m, 1.0, 1.8, -0.8, 0.8);
+  EXPECT_EQ(countLabel(m, around, L::kLevel), static_cast<int>(around.size())) << ascii(m);
+}
+
+// The same block and rail with the default rules: 10 cm above the floor beside them (> h_T),
+// they are the tops of low obstacles, Non-ground (SafetyLabellingConfig::small_obstacles).
+TEST(SafetyMapper, SmallAndThinSegmentsAboveTheFloorAreObstacles) {
+  World w;
+  w.boxes.push_back({{1.96, -0.54, -0.1}, {2.04, -0.46, 0.1}});
+  w.boxes.push_back({{2.46, 0.05, -0.1}, {2.54, 0.85, 0.1}});
+  const auto mapper = run(drive(w));
+  const SafetyMap& m = mapper->safetyMap();
+  EXPECT_EQ(m.labelAt(20, -5), L::kNonGround) << ascii(m);
+  for (int v = 1; v <= 8; ++v)
+    EXPECT_EQ(m.labelAt(25, v), L::kNonGround) << v << ascii(m);
   const auto around = cellsIn(m, 1.0, 1.8, -0.8, 0.8);
   EXPECT_EQ(countLabel(m, around, L::kLevel), static_cast<int>(around.size())) << ascii(m);
 }
@@ -866,6 +884,61 @@ TEST(SafetyMapperReconfigure, StageChangeKeepsTheModelGridChangeStartsAgain) {
   EXPECT_TRUE(m->safetyMap().labels.empty());
   EXPECT_TRUE(std::isnan(m->latestTime()));
   EXPECT_EQ(m->grid().config().decr, 3);
+}
+
+}  // namespace
+}  // namespace stereo_safety_map
+
+namespace stereo_safety_map {
+namespace {
+
+// Object permanence (SafetyMapperConfig::obstacle_memory): the floor with a box (x 2.0-2.4,
+// |y| <= 0.3, 0.5 m high) driven up to. The box is Non-ground. A later labelling that would
+// take its columns into the floor (here: robot_height lowered to 5 cm, so that the height map
+// sees only their lowest voxel) keeps them Non-ground while their voxels are occupied; once
+// free space was observed there (the voxels above emptied), the cells follow the labelling
+// again. Without the memory they flip to Level at once.
+TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  for (const bool memory : {false, true}) {
+    SafetyMapperConfig c;
+    c.obstacle_memory = memory;
+    c.max_cell_age = 0.0;
+    const auto m = run(frames, c);
+    const Eigen::Vector3f robot = frames.back().robot;
+    ASSERT_EQ(labelAt(m->safetyMap(), 2.0, 0.0), L::kNonGround) << ascii(m->safetyMap());
+    ASSERT_EQ(labelAt(m->safetyMap(), 1.3, 0.0), L::kLevel) << ascii(m->safetyMap());
+    auto relabel = [&](double robot_height) {
+      SafetyMapperConfig r = m->config();
+      r.height_map.robot_height = robot_height;
+      EXPECT_EQ(m->reconfigure(r), "");
+      m->computeSafetyMap(robot);
+      return labelAt(m->safetyMap(), 2.0, 0.0);
+    };
+    // The labelling would now call the box's near face floor.
+    EXPECT_EQ(relabel(0.05), memory ? L::kNonGround : L::kLevel) << memory << ascii(m->safetyMap());
+    EXPECT_EQ(m->cellsRemembered() > 0, memory);
+    EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 0.0), L::kLevel);
+    // Free space observed through the box's columns: their upper voxels no longer occupied.
+    VoxelGrid& g = m->grid();
+    const VoxelIndex lo = g.indexOf(Eigen::Vector3f(1.9f, -0.4f, 0.1f));
+    const VoxelIndex hi = g.indexOf(Eigen::Vector3f(2.5f, 0.4f, 0.7f));
+    for (int w = lo.w; w <= hi.w; ++w)
+      for (int v = lo.v; v <= hi.v; ++v)
+        for (int u = lo.u; u <= hi.u; ++u)
+          g.setLogOdds(VoxelIndex{u, v, w}, -10);
+    EXPECT_EQ(relabel(0.05), L::kLevel) << memory << ascii(m->safetyMap());
+    EXPECT_EQ(m->cellsRemembered(), 0u);
+  }
+}
+
+TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {
+  const auto m = run(drive(floorWithBox()));
+  m->reset();
+  EXPECT_TRUE(m->safetyMap().labels.empty());
+  EXPECT_EQ(m->cellsRemembered(), 0u);
+  EXPECT_FALSE(paperFaithful(SafetyMapperConfig()).obstacle_memory);
+  EXPECT_TRUE(SafetyMapperConfig().obstacle_memory);
 }
 
 }  // namespace

@@ -27,6 +27,14 @@ struct GroundSegmentationConfig {
   /// robot's cell whose height differs least from the robot's base indexed height (at most
   /// w_T), the nearest among equals. No such cell: no robot segment and no segments at all.
   double seed_radius = 1.0;
+  /// The robot stands on ground (ours; 0 = 000's seed rule alone). The camera cannot see under
+  /// the chair, and where the floor has little texture it may not see the floor near it for a
+  /// long time; with the seed rule alone there is then no robot segment and the whole map is
+  /// unreachable (Non-ground). The cells within footprint_radius [m] of the robot's cell that
+  /// have no observed height are ground at the base's indexed height (GroundSegments::footprint):
+  /// the robot's segment is seeded from them (and SafetyMapper gives a robot segment without
+  /// points of its own the level plane of the base). [0, 5] m.
+  double footprint_radius = 0.35;
   /// Island segments (ours; false = 000's Alg. 1 alone). Sparse stereo breaks the observed
   /// ground into islands separated by unobserved cells. Alg. 1 grows segments only from the
   /// robot's island, so every column of the others is non-traversable, i.e. Non-ground, though
@@ -59,7 +67,10 @@ struct GroundSegments {
   std::vector<int> segment_cells;
   std::vector<std::int32_t> segment_height;  ///< indexed height w of each segment
   std::vector<std::uint8_t> segment_island;  ///< per segment: 1 when grown as an island
-  std::vector<int> non_traversable;          ///< cells with a height, within R_max, in no segment
+  /// per cell: 1 on a footprint cell taken as ground at the base's height (no observed height;
+  /// GroundSegmentationConfig::footprint_radius). The height map itself is not changed.
+  std::vector<std::uint8_t> footprint;
+  std::vector<int> non_traversable;  ///< cells with a height, within R_max, in no segment
 
   int numSegments() const { return static_cast<int>(segment_height.size()); }
   int segmentSize(int k) const { return segment_begin[k + 1] - segment_begin[k]; }

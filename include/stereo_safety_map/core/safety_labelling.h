@@ -41,6 +41,24 @@ struct SafetyLabellingConfig {
   /// of the segment's cells within 2 cells: one column alone is too noisy, and along a curb
   /// the columns of the curb's face, halfway down, would let a few border cells through.
   bool measured_step_test = true;
+  /// Small obstacles are obstacles (ours; false = 000 Alg. 2 steps 3-4 alone). Alg. 2 calls a
+  /// segment smaller than n_small, or thin, Unknown before reachability is asked: right for a
+  /// small patch of ground, wrong for the top of a pole, a bin, a bollard or a chair seat, which
+  /// make exactly such segments; a planner that drives through Unknown would drive into them.
+  /// With this on, a segment left Unknown by steps 3-4 (or for want of a plane) whose measured
+  /// surface (local surface heights, see measured_step_test) rises above an adjacent safe
+  /// segment's by more than h_T at their border (gaps of max_gap_cells included) is Non-ground.
+  bool small_obstacles = true;
+  /// Across the camera's blind zone (ours; 0 = off, 000 Sec. VI's touching neighbours). A camera
+  /// on the chair sees the ground only from 0.7-1.9 m ahead of the base (its height and pitch);
+  /// until the robot has driven over the ground it saw, the cells between its footprint
+  /// (GroundSegments::footprint) and the first observed ground have no height. With this on,
+  /// the footprint's boundary cells and the boundary cells of other segments at most
+  /// footprint_bridge [m] apart, with only unobserved cells on the straight line between them,
+  /// are neighbouring boundary cells of Alg. 2; the h_T test at the far cell and num_T decide as
+  /// for any border, and the unobserved cells stay Unknown. So an unobserved near field does not
+  /// make the whole map unreachable, and a drop or step there still separates. [0, 10] m.
+  double footprint_bridge = 1.5;
 
   /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
   /// when it has an Unknown 8-neighbour and, within drop_off_radius [m] of its centre, a cell
@@ -54,8 +72,10 @@ struct SafetyLabellingConfig {
   /// surface's last column often lies already over the lower level (000 Sec. VII-A: obstacles
   /// "bleed"; at a drop-off the safe side bleeds). With this on, a border cell of a Level /
   /// Inclined segment whose 8-neighbour holds an observed surface lower than its own (local
-  /// surface heights, see measured_step_test) by more than max(h_T, drop_off_min_drop) is
-  /// Non-ground. Drop-offs whose lower side is hidden (next to Unknown) keep 000's potential
+  /// surface heights, see measured_step_test), and lower than the segment's plane carried on
+  /// to that neighbour, by more than max(h_T, drop_off_min_drop) is Non-ground (the plane test
+  /// keeps a ramp's foot, where the ramp's averaged local surface stands above the floor, from
+  /// reading as a drop). Drop-offs whose lower side is hidden (next to Unknown) keep 000's potential
   /// drop-off edge annotation.
   bool drop_off_margin = true;
   double drop_off_radius = 0.5;
@@ -87,11 +107,14 @@ class SafetyLabelling {
   struct Contact {  // a boundary cell of segment s next to segment r
     int s;
     int r;
-    int ok;  // 1 when the planes of s and r differ by less than h_T at the cell's centre
+    int ok;      // 1 when the planes of s and r differ by less than h_T at the cell's centre
+    float rise;  // s's local surface height minus r's there [m] (NaN when not measured)
+    int cell;    // the boundary cell of s
   };
   struct Edge {  // all contacts of s with r, s's side only
     int r;
     int ok;
+    float rise;  // the largest rise of s over r along the border (NaN when none measured)
   };
   int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
   // Mean measured surface height of the cells of c's segment within kLocalSurfaceRadius cells
@@ -107,6 +130,9 @@ class SafetyLabelling {
   std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
   std::vector<int> edge_begin_;
   std::vector<std::uint8_t> seg_state_;  // per segment, internal labels of Alg. 2
+  std::vector<std::uint8_t> small_;      // per segment: Unknown by steps 3-4 or for no plane
+  std::vector<int> bridge_from_;         // footprint boundary cells (footprint_bridge)
+  std::vector<int> bridge_to_;           // boundary cells of other segments near the footprint
   std::vector<std::uint8_t> neighbours_examined_;
   std::vector<int> to_examine_;  // L_S of Alg. 2
 };

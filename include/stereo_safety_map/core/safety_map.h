@@ -50,6 +50,9 @@ struct SegmentInfo {
   SafetyLabel label = SafetyLabel::kUnexamined;
   bool reachable = false;  ///< reached from the robot's segment in Alg. 2
   bool island = false;     ///< grown as an island (GroundSegmentationConfig::segment_islands)
+  /// Non-ground as the top of an obstacle (SafetyLabellingConfig::small_obstacles), not for
+  /// its slope or reachability.
+  bool obstacle = false;
 };
 
 /// The result of one labelling pass. Cells are row-major: index = (v - min_v) * width + (u -

@@ -5,6 +5,7 @@
 // frames does not allocate (except when the number of segments grows).
 #pragma once
 
+#include "stereo_safety_map/core/frame_levelling.h"
 #include "stereo_safety_map/core/ground_segmentation.h"
 #include "stereo_safety_map/core/height_map.h"
 #include "stereo_safety_map/core/observation_age.h"
@@ -19,6 +20,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace stereo_safety_map {
@@ -54,6 +56,25 @@ struct SafetyMapperConfig {
   /// Inclined cells fall back to Unknown, nothing else changes (policy in observation_age.h;
   /// ours, not in the paper). Only frames passed with a stamp age the map. 0 = off.
   double max_cell_age = 30.0;
+
+  /// Object permanence (ours; false = 000, whose map is recomputed from the grid each frame).
+  /// A cell that held an obstacle (a non-traversable column: the face of an obstacle or an
+  /// overhang, 000 Sec. V-A; or the top of a small obstacle, SafetyLabellingConfig::
+  /// small_obstacles) keeps Non-ground until free space is observed there: until none of the
+  /// voxels of its column that were occupied then is occupied any more. Occupancy falls only
+  /// through the free-space decrements of rays passing through (000 Sec. IV), so a later
+  /// segmentation that happens to take the column into a safe segment (a stereo gap, an island,
+  /// a changed seed) cannot forget the obstacle; a cell leaving the grid's window is forgotten
+  /// with its voxels. Aging (max_cell_age) never makes such a cell safe either. Only what rises
+  /// above the robot's base counts as an obstacle (the voxels of the column above its lowest
+  /// occupied one, or the one voxel of a single-voxel column): a column of lower ground is
+  /// Non-ground for its reachability, which may change.
+  bool obstacle_memory = true;
+
+  /// Re-levelling of each frame on the ground the robot stands on (frame_levelling.h; ours,
+  /// enabled false = 000, which takes the pose from odometry as it is): the previous map's robot
+  /// segment and its plane are the reference.
+  FrameLevellingConfig relevel;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -91,6 +112,7 @@ struct FrameResult {
   IntegrationStats integration;     ///< zeros when not integrated
   std::size_t voxels_scrolled = 0;  ///< voxels cleared by recentring the grid
   std::size_t cells_aged = 0;       ///< safe cells turned Unknown by max_cell_age (stamped frames)
+  FrameLevellingResult levelling;   ///< the frame's re-levelling (SafetyMapperConfig::relevel)
   StageTimings timings;             ///< zeros when not integrated
 };
 
@@ -134,6 +156,8 @@ class SafetyMapper {
   /// frame arrives): returns the number of safe cells that fell back to Unknown. `now` older than
   /// the latest stamp seen is replaced by it. 0 when aging is off or no stamp was ever given.
   std::size_t ageSafetyMap(double now);
+  /// Cells of the last map that the obstacle memory kept Non-ground against the labelling.
+  std::size_t cellsRemembered() const { return cells_remembered_; }
   /// Safe cells of the current map turned Unknown by aging since it was computed.
   std::size_t cellsAged() const { return cells_aged_; }
   /// Latest frame stamp / aging time seen; NaN when none since the start or the last reset.
@@ -180,10 +204,23 @@ class SafetyMapper {
   StageTimings timings_;
 
   void observe(const std::vector<Eigen::Vector3f>& points_sensor,
-               const Eigen::Isometry3f& T_fixed_sensor, double stamp);
+               const Eigen::Isometry3f& T_fixed_sensor, const Eigen::Vector3f& robot_base_position,
+               double stamp);
   bool integrate(const std::vector<Eigen::Vector3f>& points_sensor,
                  const Eigen::Isometry3f& T_fixed_sensor,
                  const Eigen::Vector3f& robot_base_position, double stamp, FrameResult* out);
+
+  // SafetyMapperConfig::obstacle_memory: cells (by their global (u, v)) that held an obstacle,
+  // and the band of indexed heights [lo, hi] of their occupied voxels then.
+  struct ObstacleMark {
+    std::int32_t lo;
+    std::int32_t hi;
+  };
+  std::unordered_map<std::int64_t, ObstacleMark> obstacle_memory_;
+  std::vector<std::int64_t> memory_drop_;  // scratch
+  std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
+  FrameLevellingScratch levelling_scratch_;
+  void applyObstacleMemory(std::int32_t robot_w);
 
   ObservationAge observation_age_;
   double latest_time_;  // NaN when unknown
