@@ -1,6 +1,8 @@
 #include "stereo_safety_map/ros/dataset_reader.h"
 
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/ros/conversions.h"
+#include "stereo_safety_map/ros/param_yaml.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -16,7 +18,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -300,177 +301,6 @@ bool StereoBagReader::next(StereoBagFrame* f) {
 
 // ---------------------------------------------------------------------------------------------
 
-namespace {
-
-// Applies the keys of `root` (a map) that name core parameters; `unknown` receives the others.
-std::string applyParams(const YAML::Node& root, const std::string& path,
-                        StereoFrameProcessorConfig* c, std::vector<std::string>* unknown) {
-  SafetyMapperConfig& m = c->mapper;
-  DisparityPipelineConfig& dp = c->disparity;
-  LandmarkStreamConfig& lf = c->landmark_filter;
-  // The disparity nodelet's texture_window_size 0 means "the block size" (config/disparity.yaml).
-  int texture_window = -1;
-  std::map<std::string, std::function<void(const YAML::Node&)>> table = {
-      {"voxel_size", [&](const YAML::Node& n) { m.grid.voxel_size = n.as<double>(); }},
-      {"size_x", [&](const YAML::Node& n) { m.grid.size_x = n.as<double>(); }},
-      {"size_y", [&](const YAML::Node& n) { m.grid.size_y = n.as<double>(); }},
-      {"size_z", [&](const YAML::Node& n) { m.grid.size_z = n.as<double>(); }},
-      {"z_below_robot", [&](const YAML::Node& n) { m.grid.z_below_robot = n.as<double>(); }},
-      {"incr_high", [&](const YAML::Node& n) { m.grid.incr_high = n.as<int>(); }},
-      {"incr_low", [&](const YAML::Node& n) { m.grid.incr_low = n.as<int>(); }},
-      {"decr", [&](const YAML::Node& n) { m.grid.decr = n.as<int>(); }},
-      {"occ_threshold", [&](const YAML::Node& n) { m.grid.occ_threshold = n.as<int>(); }},
-      {"lop_min", [&](const YAML::Node& n) { m.grid.lop_min = n.as<int>(); }},
-      {"lop_max", [&](const YAML::Node& n) { m.grid.lop_max = n.as<int>(); }},
-      {"point_list_capacity",
-       [&](const YAML::Node& n) { m.grid.point_list_capacity = n.as<int>(); }},
-      {"max_range", [&](const YAML::Node& n) { m.grid.max_range = n.as<double>(); }},
-      {"min_range", [&](const YAML::Node& n) { m.grid.min_range = n.as<double>(); }},
-      {"robot_height", [&](const YAML::Node& n) { m.height_map.robot_height = n.as<double>(); }},
-      {"planning_radius",
-       [&](const YAML::Node& n) { m.segmentation.planning_radius = n.as<double>(); }},
-      {"height_tolerance",
-       [&](const YAML::Node& n) { m.segmentation.height_tolerance = n.as<int>(); }},
-      {"connectivity", [&](const YAML::Node& n) { m.segmentation.connectivity = n.as<int>(); }},
-      {"seed_radius", [&](const YAML::Node& n) { m.segmentation.seed_radius = n.as<double>(); }},
-      {"segment_islands",
-       [&](const YAML::Node& n) { m.segmentation.segment_islands = n.as<bool>(); }},
-      {"island_max_span",
-       [&](const YAML::Node& n) { m.segmentation.island_max_span = n.as<int>(); }},
-      {"max_gap_cells", [&](const YAML::Node& n) { m.labelling.max_gap_cells = n.as<int>(); }},
-      {"min_points", [&](const YAML::Node& n) { m.plane_fit.min_points = n.as<int>(); }},
-      {"min_xy_stddev", [&](const YAML::Node& n) { m.plane_fit.min_xy_stddev = n.as<double>(); }},
-      {"plane_vertical_margin",
-       [&](const YAML::Node& n) { m.plane_fit.vertical_margin = n.as<int>(); }},
-      {"measured_step_test",
-       [&](const YAML::Node& n) { m.labelling.measured_step_test = n.as<bool>(); }},
-      {"max_slope_deg", [&](const YAML::Node& n) { m.labelling.max_slope_deg = n.as<double>(); }},
-      {"level_slope_deg",
-       [&](const YAML::Node& n) { m.labelling.level_slope_deg = n.as<double>(); }},
-      {"min_segment_cells",
-       [&](const YAML::Node& n) { m.labelling.min_segment_cells = n.as<int>(); }},
-      {"thin_ratio", [&](const YAML::Node& n) { m.labelling.thin_ratio = n.as<double>(); }},
-      {"max_step_height",
-       [&](const YAML::Node& n) { m.labelling.max_step_height = n.as<double>(); }},
-      {"min_passage_cells",
-       [&](const YAML::Node& n) { m.labelling.min_passage_cells = n.as<int>(); }},
-      {"mark_drop_offs", [&](const YAML::Node& n) { m.labelling.mark_drop_offs = n.as<bool>(); }},
-      {"drop_off_radius",
-       [&](const YAML::Node& n) { m.labelling.drop_off_radius = n.as<double>(); }},
-      {"drop_off_min_drop",
-       [&](const YAML::Node& n) { m.labelling.drop_off_min_drop = n.as<double>(); }},
-      {"skip_stationary_frames",
-       [&](const YAML::Node& n) { m.skip_stationary_frames = n.as<bool>(); }},
-      {"grid_look_ahead", [&](const YAML::Node& n) { m.grid_look_ahead = n.as<double>(); }},
-      {"stationary_translation",
-       [&](const YAML::Node& n) { m.stationary_translation = n.as<double>(); }},
-      {"stationary_rotation_deg",
-       [&](const YAML::Node& n) { m.stationary_rotation_deg = n.as<double>(); }},
-      {"scroll_with_robot", [&](const YAML::Node& n) { m.scroll_with_robot = n.as<bool>(); }},
-      {"max_cell_age", [&](const YAML::Node& n) { m.max_cell_age = n.as<double>(); }},
-      {"obstacle_memory", [&](const YAML::Node& n) { m.obstacle_memory = n.as<bool>(); }},
-      {"small_obstacles", [&](const YAML::Node& n) { m.labelling.small_obstacles = n.as<bool>(); }},
-      {"drop_off_margin", [&](const YAML::Node& n) { m.labelling.drop_off_margin = n.as<bool>(); }},
-      {"footprint_bridge",
-       [&](const YAML::Node& n) { m.labelling.footprint_bridge = n.as<double>(); }},
-      {"footprint_radius",
-       [&](const YAML::Node& n) { m.segmentation.footprint_radius = n.as<double>(); }},
-      {"disparity_step", [&](const YAML::Node& n) { c->disparity_step = n.as<int>(); }},
-      // Landmark filter of 001 Sec. 4.2 in front of the grid (fusion_params.h names).
-      {"use_landmark_filter", [&](const YAML::Node& n) { lf.enabled = n.as<bool>(); }},
-      {"landmark_sigma_row",
-       [&](const YAML::Node& n) { lf.filter.error_model.sigma_row = n.as<double>(); }},
-      {"landmark_sigma_col",
-       [&](const YAML::Node& n) { lf.filter.error_model.sigma_col = n.as<double>(); }},
-      {"landmark_sigma_disparity",
-       [&](const YAML::Node& n) { lf.filter.error_model.sigma_disparity = n.as<double>(); }},
-      {"landmark_gate_chi2", [&](const YAML::Node& n) { lf.filter.gate_chi2 = n.as<double>(); }},
-      {"landmark_use_mahalanobis",
-       [&](const YAML::Node& n) { lf.filter.use_mahalanobis = n.as<bool>(); }},
-      {"landmark_euclidean_gate",
-       [&](const YAML::Node& n) { lf.filter.euclidean_gate = n.as<double>(); }},
-      {"landmark_min_matches", [&](const YAML::Node& n) { lf.filter.min_matches = n.as<int>(); }},
-      {"landmark_time_window",
-       [&](const YAML::Node& n) { lf.filter.time_window = n.as<double>(); }},
-      {"landmark_stale_time", [&](const YAML::Node& n) { lf.filter.stale_time = n.as<double>(); }},
-      {"landmark_max_landmarks",
-       [&](const YAML::Node& n) { lf.filter.max_landmarks = n.as<int>(); }},
-      {"landmark_max_search_radius_px",
-       [&](const YAML::Node& n) { lf.filter.max_search_radius_px = n.as<double>(); }},
-      {"landmark_max_distance",
-       [&](const YAML::Node& n) { lf.filter.max_landmark_distance = n.as<double>(); }},
-      // Disparity stage (disparity_pipeline.h), for comparisons; the nodelets' disparity comes
-      // from the disparity nodelet's own parameters.
-      {"matcher",
-       [&](const YAML::Node& n) {
-         const std::string v = n.as<std::string>();
-         if (v != "bm" && v != "sgbm") throw std::runtime_error("matcher must be bm or sgbm");
-         dp.matcher =
-             v == "bm" ? StereoMatcherType::kBlockMatching : StereoMatcherType::kSemiGlobal;
-       }},
-      {"min_disparity", [&](const YAML::Node& n) { dp.min_disparity = n.as<int>(); }},
-      {"num_disparities", [&](const YAML::Node& n) { dp.num_disparities = n.as<int>(); }},
-      {"block_size", [&](const YAML::Node& n) { dp.block_size = n.as<int>(); }},
-      {"pre_filter_cap", [&](const YAML::Node& n) { dp.pre_filter_cap = n.as<int>(); }},
-      {"bm_texture_threshold", [&](const YAML::Node& n) { dp.bm_texture_threshold = n.as<int>(); }},
-      {"speckle_window_size", [&](const YAML::Node& n) { dp.speckle_window_size = n.as<int>(); }},
-      {"speckle_range", [&](const YAML::Node& n) { dp.speckle_range = n.as<int>(); }},
-      {"sgbm_p1", [&](const YAML::Node& n) { dp.sgbm_p1 = n.as<int>(); }},
-      {"sgbm_p2", [&](const YAML::Node& n) { dp.sgbm_p2 = n.as<int>(); }},
-      {"sgbm_three_way", [&](const YAML::Node& n) { dp.sgbm_three_way = n.as<bool>(); }},
-      {"enable_uniqueness", [&](const YAML::Node& n) { dp.enable_uniqueness = n.as<bool>(); }},
-      {"uniqueness_ratio",
-       [&](const YAML::Node& n) { dp.uniqueness.uniqueness_ratio = n.as<int>(); }},
-      {"enable_texture", [&](const YAML::Node& n) { dp.enable_texture = n.as<bool>(); }},
-      {"texture_log_sigma", [&](const YAML::Node& n) { dp.texture.log_sigma = n.as<double>(); }},
-      {"texture_window_size", [&](const YAML::Node& n) { texture_window = n.as<int>(); }},
-      {"texture_min_energy", [&](const YAML::Node& n) { dp.texture.min_energy = n.as<double>(); }},
-      {"enable_left_right", [&](const YAML::Node& n) { dp.enable_left_right = n.as<bool>(); }},
-      {"left_right_max_difference",
-       [&](const YAML::Node& n) { dp.left_right.max_difference = n.as<double>(); }},
-      {"left_right_reject_if_right_invalid",
-       [&](const YAML::Node& n) { dp.left_right.reject_if_right_invalid = n.as<bool>(); }},
-      {"parallel_left_right", [&](const YAML::Node& n) { dp.parallel_left_right = n.as<bool>(); }},
-      {"enable_neighbour_consistency",
-       [&](const YAML::Node& n) { dp.enable_neighbour_consistency = n.as<bool>(); }},
-      {"neighbour_window_radius",
-       [&](const YAML::Node& n) { dp.neighbour_consistency.window_radius = n.as<int>(); }},
-      {"neighbour_max_difference",
-       [&](const YAML::Node& n) { dp.neighbour_consistency.max_difference = n.as<double>(); }},
-      {"neighbour_min_agreeing_fraction",
-       [&](const YAML::Node&
-               n) { dp.neighbour_consistency.min_agreeing_fraction = n.as<double>(); }},
-      {"neighbour_remove_isolated",
-       [&](const YAML::Node& n) { dp.neighbour_consistency.remove_isolated = n.as<bool>(); }},
-      {"enable_spike_removal",
-       [&](const YAML::Node& n) { dp.enable_spike_removal = n.as<bool>(); }},
-      {"spike_max_difference",
-       [&](const YAML::Node& n) { dp.spike_removal.max_difference = n.as<double>(); }},
-      {"spike_min_region_size",
-       [&](const YAML::Node& n) { dp.spike_removal.min_region_size = n.as<int>(); }},
-  };
-  if (!root.IsMap()) return path + ": not a map of parameters";
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    auto it = table.find(key);
-    if (it == table.end()) {  // the nodelet's own settings (frames, queues, ...)
-      if (unknown != nullptr) unknown->push_back(key);
-      continue;
-    }
-    try {
-      it->second(kv.second);
-    } catch (const std::exception& e) {
-      return path + ": bad value for " + key + ": " + e.what();
-    }
-  }
-  if (texture_window > 0) dp.texture.window_size = texture_window;
-  if (texture_window == 0 || (texture_window < 0 && root["block_size"]))
-    dp.texture.window_size = dp.block_size;
-  return c->validate();
-}
-
-}  // namespace
-
 std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c) {
   YAML::Node root;
   try {
@@ -478,23 +308,20 @@ std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* 
   } catch (const std::exception& e) {
     return "cannot read " + path + ": " + e.what();
   }
-  return applyParams(root, path, c, nullptr);
+  // Keys of the nodelets' own settings (frames, queues, ...) are not the core's: ignored.
+  const std::string e = applyYamlFields(root, stereoFrameProcessorFields(), c, path);
+  return e.empty() ? stereoFrameProcessorFields().validate(*c) : e;
 }
 
 std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c) {
-  const std::size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) return "--set needs key=value, got " + assignment;
   YAML::Node root;
-  try {
-    root[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
-  } catch (const std::exception& e) {
-    return "--set " + assignment + ": " + e.what();
-  }
+  std::string e = parseAssignment(assignment, &root);
+  if (!e.empty()) return e;
   std::vector<std::string> unknown;
-  const std::string e = applyParams(root, "--set", c, &unknown);
+  e = applyYamlFields(root, stereoFrameProcessorFields(), c, "--set", &unknown);
   if (!e.empty()) return e;
   if (!unknown.empty()) return "--set: unknown core parameter " + unknown.front();
-  return "";
+  return stereoFrameProcessorFields().validate(*c);
 }
 
 // ---------------------------------------------------------------------------------------------

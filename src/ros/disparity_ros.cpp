@@ -2,6 +2,7 @@
 
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/reconfigure_fields.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -72,7 +73,6 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     diagnostics_->force_update();
     return;
   }
-  pnh_.param("texture_window_size", texture_window_param_, 0);  // an int: checked above
   for (const std::string& p : unknownParameters(pnh_, disparityParameterNames())) {
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
@@ -372,77 +372,17 @@ void DisparityRos::reconfigureCb(DisparityConfig& config, uint32_t /*level*/) {
   config.num_disparities = std::max(16, config.num_disparities / 16 * 16);
   if (config.texture_window_size != 0) config.texture_window_size |= 1;
 
+  // The live fields of the pipeline's list (core/config_fields.h), by name.
   DisparityPipelineConfig c = pipeline_config_;
-  std::string err;
-  if (!matcherFromName(config.matcher, &c.matcher)) {
-    err = "matcher = '" + config.matcher + "' must be 'bm' or 'sgbm'";
-  }
-  c.min_disparity = config.min_disparity;
-  c.num_disparities = config.num_disparities;
-  c.block_size = config.block_size;
-  c.pre_filter_cap = config.pre_filter_cap;
-  c.bm_texture_threshold = config.bm_texture_threshold;
-  c.speckle_window_size = config.speckle_window_size;
-  c.speckle_range = config.speckle_range;
-  c.sgbm_p1 = config.sgbm_p1;
-  c.sgbm_p2 = config.sgbm_p2;
-  c.sgbm_three_way = config.sgbm_three_way;
-  c.enable_uniqueness = config.enable_uniqueness;
-  c.uniqueness.uniqueness_ratio = config.uniqueness_ratio;
-  c.enable_texture = config.enable_texture;
-  c.texture.log_sigma = config.texture_log_sigma;
-  c.texture.window_size =
-      config.texture_window_size == 0 ? config.block_size : config.texture_window_size;
-  c.texture.min_energy = config.texture_min_energy;
-  c.enable_left_right = config.enable_left_right;
-  c.left_right.max_difference = config.left_right_max_difference;
-  c.left_right.reject_if_right_invalid = config.left_right_reject_if_right_invalid;
-  c.enable_neighbour_consistency = config.enable_neighbour_consistency;
-  c.neighbour_consistency.window_radius = config.neighbour_window_radius;
-  c.neighbour_consistency.max_difference = config.neighbour_max_difference;
-  c.neighbour_consistency.min_agreeing_fraction = config.neighbour_min_agreeing_fraction;
-  c.neighbour_consistency.remove_isolated = config.neighbour_remove_isolated;
-  c.enable_spike_removal = config.enable_spike_removal;
-  c.spike_removal.max_difference = config.spike_max_difference;
-  c.spike_removal.min_region_size = config.spike_min_region_size;
-  if (err.empty()) err = validateDisparityParameters(c, config.texture_window_size);
-
+  std::string err = fromReconfigure(config, disparityPipelineFields(), &c);
+  if (err.empty()) err = disparityPipelineFields().validate(c);
   if (!err.empty()) {
     ROS_ERROR_STREAM(name_ << ": reconfiguration refused, keeping the previous values: " << err);
     // Hand the current values back to the server (and so to rqt_reconfigure).
-    const DisparityPipelineConfig& o = pipeline_config_;
-    config.matcher = matcherName(o.matcher);
-    config.min_disparity = o.min_disparity;
-    config.num_disparities = o.num_disparities;
-    config.block_size = o.block_size;
-    config.pre_filter_cap = o.pre_filter_cap;
-    config.bm_texture_threshold = o.bm_texture_threshold;
-    config.speckle_window_size = o.speckle_window_size;
-    config.speckle_range = o.speckle_range;
-    config.sgbm_p1 = o.sgbm_p1;
-    config.sgbm_p2 = o.sgbm_p2;
-    config.sgbm_three_way = o.sgbm_three_way;
-    config.enable_uniqueness = o.enable_uniqueness;
-    config.uniqueness_ratio = o.uniqueness.uniqueness_ratio;
-    config.enable_texture = o.enable_texture;
-    config.texture_log_sigma = o.texture.log_sigma;
-    config.texture_window_size = texture_window_param_;
-    config.texture_min_energy = o.texture.min_energy;
-    config.enable_left_right = o.enable_left_right;
-    config.left_right_max_difference = o.left_right.max_difference;
-    config.left_right_reject_if_right_invalid = o.left_right.reject_if_right_invalid;
-    config.enable_neighbour_consistency = o.enable_neighbour_consistency;
-    config.neighbour_window_radius = o.neighbour_consistency.window_radius;
-    config.neighbour_max_difference = o.neighbour_consistency.max_difference;
-    config.neighbour_min_agreeing_fraction = o.neighbour_consistency.min_agreeing_fraction;
-    config.neighbour_remove_isolated = o.neighbour_consistency.remove_isolated;
-    config.enable_spike_removal = o.enable_spike_removal;
-    config.spike_max_difference = o.spike_removal.max_difference;
-    config.spike_min_region_size = o.spike_removal.min_region_size;
+    toReconfigure(pipeline_config_, disparityPipelineFields(), &config);
     return;
   }
   pipeline_config_ = c;
-  texture_window_param_ = config.texture_window_size;
   std::lock_guard<std::mutex> lock(pending_mutex_);
   pending_config_ = std::make_unique<DisparityPipelineConfig>(c);
 }

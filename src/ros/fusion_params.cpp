@@ -1,9 +1,9 @@
 #include "stereo_safety_map/ros/fusion_params.h"
 
+#include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 
-#include <xmlrpcpp/XmlRpcValue.h>
-
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -12,50 +12,42 @@ namespace stereo_safety_map {
 
 namespace {
 
-// Reads typed parameters, remembering the first error (param_reader.h).
-using Reader = ParamReader;
-
 std::string rangeError(const char* name, double value, const char* range) {
   std::ostringstream os;
   os << name << " = " << value << " is out of range " << range;
   return os.str();
 }
 
+// The nodelet's settings, then the laser grid's window in cells from laser_size_x / laser_size_y
+// and resolution (stored into `p`), then the laser grid's and the combination's validate().
+std::string finishHybrid(HybridSafetyMapParams* p) {
+  const HybridSafetyMapRosConfig* rc = &p->ros;
+  LaserGridConfig* laser = &p->laser;
+  std::string err = rc->validate();
+  if (err.empty() && std::isfinite(laser->resolution) && laser->resolution > 0.0) {
+    // The window in cells; at least one cell, the core checks the upper bound.
+    const double w = std::round(rc->laser_size_x / laser->resolution);
+    const double h = std::round(rc->laser_size_y / laser->resolution);
+    if (w < 1.0) err = rangeError("laser_size_x", rc->laser_size_x, "[resolution, 1000] m");
+    if (err.empty() && h < 1.0) {
+      err = rangeError("laser_size_y", rc->laser_size_y, "[resolution, 1000] m");
+    }
+    laser->width = static_cast<int>(std::min(w, 1e6));
+    laser->height = static_cast<int>(std::min(h, 1e6));
+  }
+  if (err.empty()) err = laser->validate();
+  if (err.empty()) err = p->hybrid.validate();
+  return err;
+}
+
 }  // namespace
 
 std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* c) {
-  Reader r(pnh);
-  LandmarkFilterConfig& f = c->filter;
-  r.read("use_landmark_filter", &c->enabled);
-  r.read("landmark_sigma_row", &f.error_model.sigma_row);
-  r.read("landmark_sigma_col", &f.error_model.sigma_col);
-  r.read("landmark_sigma_disparity", &f.error_model.sigma_disparity);
-  r.read("landmark_gate_chi2", &f.gate_chi2);
-  r.read("landmark_use_mahalanobis", &f.use_mahalanobis);
-  r.read("landmark_euclidean_gate", &f.euclidean_gate);
-  r.read("landmark_min_matches", &f.min_matches);
-  r.read("landmark_time_window", &f.time_window);
-  r.read("landmark_stale_time", &f.stale_time);
-  r.read("landmark_max_landmarks", &f.max_landmarks);
-  r.read("landmark_max_search_radius_px", &f.max_search_radius_px);
-  r.read("landmark_max_distance", &f.max_landmark_distance);
-  // The core's messages name the struct's fields; the parameters carry the landmark_ prefix.
-  std::string err = f.validate();
-  const std::string far = "max_landmark_distance";
-  if (err.compare(0, far.size(), far) == 0) {
-    err = "landmark_max_distance" + err.substr(far.size());
-  } else if (!err.empty()) {
-    err = "landmark_" + err;
-  }
-  return r.result(err);
+  return readParams(pnh, landmarkStreamFields(), c);
 }
 
 std::vector<std::string> landmarkParameterNames() {
-  return {"use_landmark_filter",      "landmark_sigma_row",     "landmark_sigma_col",
-          "landmark_sigma_disparity", "landmark_gate_chi2",     "landmark_use_mahalanobis",
-          "landmark_euclidean_gate",  "landmark_min_matches",   "landmark_time_window",
-          "landmark_stale_time",      "landmark_max_landmarks", "landmark_max_search_radius_px",
-          "landmark_max_distance"};
+  return landmarkStreamFields().names();
 }
 
 std::string HybridSafetyMapRosConfig::validate() const {
@@ -81,68 +73,73 @@ std::string HybridSafetyMapRosConfig::validate() const {
   return "";
 }
 
+const ParamFieldList<HybridSafetyMapParams>& hybridSafetyMapParamsFields() {
+  using P = HybridSafetyMapParams;
+  using R = HybridSafetyMapRosConfig;
+  static const ParamFieldList<P> list = [] {
+    ParamFieldList<P> l;
+    l.section("Nodelet");
+    l.add("fixed_frame", &P::ros, &R::fixed_frame)
+        .rangeText("non-empty")
+        .doc(
+            "frame of the laser grid; must be the safety-map nodelet's (stereo maps in another "
+            "frame are refused).");
+    l.add("queue_size", &P::ros, &R::queue_size)
+        .closed(1, 1000)
+        .doc("scan subscriber and tf filter queue.");
+    l.add("vision_timeout", &P::ros, &R::vision_timeout)
+        .openClosed(0, 3600)
+        .unit("s")
+        .doc("a stereo map older than this, against the newest scan, is no longer combined.");
+    l.add("laser_only_rate", &P::ros, &R::laser_only_rate)
+        .closed(0, 100)
+        .unit("Hz")
+        .doc("rate of the laser-only map while no current stereo map exists; 0 = never.");
+    l.add("time_jump_reset", &P::ros, &R::time_jump_reset)
+        .closed(0, 3600)
+        .unit("s")
+        .doc(
+            "scan stamps going back by more than this clear the grids; less: the scan is "
+            "dropped.");
+    l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.include(laserGridFields(), &P::laser);
+    l.section(laserGridFields().fields().front().info.section);
+    l.add("laser_size_x", &P::ros, &R::laser_size_x)
+        .openClosed(0, 1000)
+        .rangeText("[resolution, 1000]")
+        .unit("m")
+        .doc(
+            "laser grid extent along x, centred on the laser; larger than the 10 m stereo map "
+            "so that it covers it while the laser sits off the robot's centre (ours).");
+    l.add("laser_size_y", &P::ros, &R::laser_size_y)
+        .openClosed(0, 1000)
+        .rangeText("[resolution, 1000]")
+        .unit("m")
+        .doc("laser grid extent along y (ours).");
+    l.include(hybridSafetyMapFields(), &P::hybrid);
+    l.setValidator([](const P& p) {
+      P copy = p;
+      return finishHybrid(&copy);
+    });
+    return l;
+  }();
+  return list;
+}
+
 std::string fromRosParam(const ros::NodeHandle& pnh, HybridSafetyMapRosConfig* rc,
                          LaserGridConfig* laser, HybridSafetyMapConfig* hybrid) {
-  Reader r(pnh);
-  r.read("fixed_frame", &rc->fixed_frame);
-  r.read("queue_size", &rc->queue_size);
-  r.read("vision_timeout", &rc->vision_timeout);
-  r.read("laser_only_rate", &rc->laser_only_rate);
-  r.read("time_jump_reset", &rc->time_jump_reset);
-  r.read("laser_size_x", &rc->laser_size_x);
-  r.read("laser_size_y", &rc->laser_size_y);
-  r.read("resolution", &laser->resolution);
-  r.read("log_odds_hit", &laser->log_odds_hit);
-  r.read("log_odds_miss", &laser->log_odds_miss);
-  r.read("log_odds_min", &laser->log_odds_min);
-  r.read("log_odds_max", &laser->log_odds_max);
-  r.read("occupied_threshold", &laser->occupied_threshold);
-  r.read("free_threshold", &laser->free_threshold);
-  r.read("clear_no_return", &laser->clear_no_return);
-  r.read("detect_narrow_passages", &hybrid->detect_narrow_passages);
-  r.read("min_passage_width", &hybrid->min_passage_width);
-  r.read("drop_off_edges_are_caution", &hybrid->drop_off_edges_are_caution);
-  r.read("laser_free_required_for_safe", &hybrid->laser_free_required_for_safe);
-  r.read("laser_free_vision_unknown_is_safe", &hybrid->laser_free_vision_unknown_is_safe);
-  std::string err = rc->validate();
-  if (err.empty() && std::isfinite(laser->resolution) && laser->resolution > 0.0) {
-    // The window in cells; at least one cell, the core checks the upper bound.
-    const double w = std::round(rc->laser_size_x / laser->resolution);
-    const double h = std::round(rc->laser_size_y / laser->resolution);
-    if (w < 1.0) err = rangeError("laser_size_x", rc->laser_size_x, "[resolution, 1000] m");
-    if (err.empty() && h < 1.0) {
-      err = rangeError("laser_size_y", rc->laser_size_y, "[resolution, 1000] m");
-    }
-    laser->width = static_cast<int>(std::min(w, 1e6));
-    laser->height = static_cast<int>(std::min(h, 1e6));
-  }
-  if (err.empty()) err = laser->validate();
-  if (err.empty()) err = hybrid->validate();
+  HybridSafetyMapParams p{*rc, *laser, *hybrid};
+  ParamReader r(pnh);
+  r.readFields(hybridSafetyMapParamsFields(), &p);
+  const std::string err = r.error().empty() ? finishHybrid(&p) : "";
+  *rc = p.ros;
+  *laser = p.laser;
+  *hybrid = p.hybrid;
   return r.result(err);
 }
 
 std::vector<std::string> hybridSafetyMapParameterNames() {
-  return {"fixed_frame",
-          "queue_size",
-          "vision_timeout",
-          "laser_only_rate",
-          "time_jump_reset",
-          "laser_size_x",
-          "laser_size_y",
-          "resolution",
-          "log_odds_hit",
-          "log_odds_miss",
-          "log_odds_min",
-          "log_odds_max",
-          "occupied_threshold",
-          "free_threshold",
-          "clear_no_return",
-          "detect_narrow_passages",
-          "min_passage_width",
-          "drop_off_edges_are_caution",
-          "laser_free_required_for_safe",
-          "laser_free_vision_unknown_is_safe",
-          "diagnostic_period"};
+  return nodeletParameterNames("hybrid_safety_map");
 }
 
 }  // namespace stereo_safety_map

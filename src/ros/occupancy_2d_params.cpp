@@ -1,72 +1,26 @@
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 
+#include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/param_yaml.h"
 
-#include <yaml-cpp/yaml.h>
-
-#include <algorithm>
 #include <cmath>
-#include <functional>
-#include <map>
 #include <sstream>
 
 namespace stereo_safety_map {
 
 namespace {
 
-const char* const kRosKeys[] = {"fixed_frame",      "base_frame",       "queue_size",
-                                "approximate_sync", "max_rate",         "tf_timeout",
-                                "time_jump_reset",  "scroll_with_robot"};
-
-// Core keys -> setters from YAML (the file and --set); the rosparam reads below use the same
-// names.
-using Setter = std::function<void(const YAML::Node&, OccupancyGrid2DConfig*)>;
-const std::map<std::string, Setter>& coreSetters() {
-  static const std::map<std::string, Setter> table = {
-      {"resolution",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->resolution = n.as<double>(); }},
-      {"size_x", [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->size_x = n.as<double>(); }},
-      {"size_y", [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->size_y = n.as<double>(); }},
-      {"k", [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->k = n.as<int>(); }},
-      {"free_threshold",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->free_threshold = n.as<int>(); }},
-      {"occupied_threshold",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->occupied_threshold = n.as<int>(); }},
-      {"floor_clearance",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->floor_clearance = n.as<double>(); }},
-      {"robot_height",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) { c->robot_height = n.as<double>(); }},
-      {"disparity_half_width",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) {
-         c->disparity_half_width = n.as<double>();
-       }},
-      {"accuracy_preservation",
-       [](const YAML::Node& n, OccupancyGrid2DConfig* c) {
-         c->accuracy_preservation = n.as<bool>();
-       }},
-  };
-  return table;
-}
-
+// The core keys applied and validated; the nodelet's own keys (frames, queues) are accepted and
+// ignored, any other key is an error.
 std::string applyYaml(const YAML::Node& root, const std::string& where, OccupancyGrid2DConfig* c) {
-  if (!root.IsMap()) return where + ": not a map of parameters";
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    const auto it = coreSetters().find(key);
-    if (it == coreSetters().end()) {
-      if (std::find(std::begin(kRosKeys), std::end(kRosKeys), key) != std::end(kRosKeys) ||
-          key == "diagnostic_period") {
-        continue;  // the nodelet's own settings
-      }
-      return where + ": unknown parameter " + key;
-    }
-    try {
-      it->second(kv.second, c);
-    } catch (const std::exception& e) {
-      return where + ": bad value for " + key + ": " + e.what();
-    }
+  std::vector<std::string> unknown;
+  std::string e = applyYamlFields(root, occupancyGrid2DFields(), c, where, &unknown);
+  if (!e.empty()) return e;
+  for (const std::string& key : unknown) {
+    if (occupancy2DRosFields().find(key) == nullptr) return where + ": unknown parameter " + key;
   }
-  const std::string e = c->validate();
+  e = c->validate();
   return e.empty() ? "" : where + ": " + e;
 }
 
@@ -90,41 +44,59 @@ std::string Occupancy2DRosConfig::validate() const {
   return os.str();
 }
 
+const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {
+  using R = Occupancy2DRosConfig;
+  static const ParamFieldList<R> list = [] {
+    ParamFieldList<R> l;
+    l.section("Nodelet");
+    l.add("fixed_frame", &R::fixed_frame)
+        .rangeText("non-empty")
+        .doc("frame the grid is built and published in (not in 002).");
+    l.add("base_frame", &R::base_frame)
+        .rangeText("non-empty")
+        .doc(
+            "robot frame, origin on the floor: the band's floor and the window's centre (not in "
+            "002).");
+    l.add("queue_size", &R::queue_size)
+        .closed(1, 1000)
+        .doc(
+            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
+            "CameraInfo).");
+    l.add("approximate_sync", &R::approximate_sync)
+        .doc(
+            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
+            "CameraInfo sync (our matcher, see Bad input).");
+    l.add("max_rate", &R::max_rate)
+        .closed(0, 1000)
+        .unit("Hz")
+        .doc("most frames processed per second, 0 = every frame (002 Sec. 1 ran at 5 Hz).");
+    l.add("tf_timeout", &R::tf_timeout)
+        .closed(0, 10)
+        .unit("s")
+        .doc("wait for the base frame's transform.");
+    l.add("time_jump_reset", &R::time_jump_reset)
+        .closed(0, 3600)
+        .unit("s")
+        .doc("stamps going back by more than this clear the grid; less: the frame is dropped.");
+    l.add("scroll_with_robot", &R::scroll_with_robot)
+        .doc("keep the window centred on the robot (not in 002: a building-sized map).");
+    l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.setValidator([](const R& c) { return c.validate(); });
+    return l;
+  }();
+  return list;
+}
+
 std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DConfig* c) {
-  ParamReader r(pnh);
-  r.read("resolution", &c->resolution);
-  r.read("size_x", &c->size_x);
-  r.read("size_y", &c->size_y);
-  r.read("k", &c->k);
-  r.read("free_threshold", &c->free_threshold);
-  r.read("occupied_threshold", &c->occupied_threshold);
-  r.read("floor_clearance", &c->floor_clearance);
-  r.read("robot_height", &c->robot_height);
-  r.read("disparity_half_width", &c->disparity_half_width);
-  r.read("accuracy_preservation", &c->accuracy_preservation);
-  return r.result(c->validate());
+  return readParams(pnh, occupancyGrid2DFields(), c);
 }
 
 std::string fromRosParam(const ros::NodeHandle& pnh, Occupancy2DRosConfig* c) {
-  ParamReader r(pnh);
-  r.read("fixed_frame", &c->fixed_frame);
-  r.read("base_frame", &c->base_frame);
-  r.read("queue_size", &c->queue_size);
-  r.read("approximate_sync", &c->approximate_sync);
-  r.read("max_rate", &c->max_rate);
-  r.read("tf_timeout", &c->tf_timeout);
-  r.read("time_jump_reset", &c->time_jump_reset);
-  r.read("scroll_with_robot", &c->scroll_with_robot);
-  return r.result(c->validate());
+  return readParams(pnh, occupancy2DRosFields(), c);
 }
 
 std::vector<std::string> occupancy2DParameterNames() {
-  std::vector<std::string> names;
-  for (const auto& kv : coreSetters())
-    names.push_back(kv.first);
-  names.insert(names.end(), std::begin(kRosKeys), std::end(kRosKeys));
-  names.push_back("diagnostic_period");  // diagnostic_updater's own
-  return names;
+  return nodeletParameterNames("occupancy_2d");
 }
 
 std::string loadOccupancy2DParamsFile(const std::string& path, OccupancyGrid2DConfig* c) {
@@ -138,15 +110,9 @@ std::string loadOccupancy2DParamsFile(const std::string& path, OccupancyGrid2DCo
 }
 
 std::string setOccupancy2DParam(const std::string& assignment, OccupancyGrid2DConfig* c) {
-  const std::size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) return "--set needs key=value, got " + assignment;
   YAML::Node root;
-  try {
-    root[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
-  } catch (const std::exception& e) {
-    return "--set " + assignment + ": " + e.what();
-  }
-  return applyYaml(root, "--set", c);
+  const std::string e = parseAssignment(assignment, &root);
+  return e.empty() ? applyYaml(root, "--set", c) : e;
 }
 
 }  // namespace stereo_safety_map

@@ -1,5 +1,6 @@
 #include "stereo_safety_map/ros/params.h"
 
+#include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -11,88 +12,8 @@
 
 namespace stereo_safety_map {
 
-namespace {
-
-// Reads typed parameters, remembering the first error (param_reader.h).
-using Reader = ParamReader;
-
-}  // namespace
-
-std::string fromRosParam(const ros::NodeHandle& pnh, VoxelGridConfig* c) {
-  Reader r(pnh);
-  r.read("voxel_size", &c->voxel_size);
-  r.read("size_x", &c->size_x);
-  r.read("size_y", &c->size_y);
-  r.read("size_z", &c->size_z);
-  r.read("z_below_robot", &c->z_below_robot);
-  r.read("incr_high", &c->incr_high);
-  r.read("incr_low", &c->incr_low);
-  r.read("decr", &c->decr);
-  r.read("occ_threshold", &c->occ_threshold);
-  r.read("lop_min", &c->lop_min);
-  r.read("lop_max", &c->lop_max);
-  r.read("point_list_capacity", &c->point_list_capacity);
-  r.read("max_range", &c->max_range);
-  r.read("min_range", &c->min_range);
-  return r.result(c->validate());
-}
-
-std::string fromRosParam(const ros::NodeHandle& pnh, HeightMapConfig* c) {
-  Reader r(pnh);
-  r.read("robot_height", &c->robot_height);
-  return r.result(c->validate());
-}
-
-std::string fromRosParam(const ros::NodeHandle& pnh, GroundSegmentationConfig* c) {
-  Reader r(pnh);
-  r.read("planning_radius", &c->planning_radius);
-  r.read("height_tolerance", &c->height_tolerance);
-  r.read("connectivity", &c->connectivity);
-  r.read("seed_radius", &c->seed_radius);
-  r.read("segment_islands", &c->segment_islands);
-  r.read("island_max_span", &c->island_max_span);
-  return r.result(c->validate());
-}
-
-std::string fromRosParam(const ros::NodeHandle& pnh, PlaneFitConfig* c) {
-  Reader r(pnh);
-  r.read("min_points", &c->min_points);
-  r.read("min_xy_stddev", &c->min_xy_stddev);
-  r.read("plane_vertical_margin", &c->vertical_margin);
-  return r.result(c->validate());
-}
-
-std::string fromRosParam(const ros::NodeHandle& pnh, SafetyLabellingConfig* c) {
-  Reader r(pnh);
-  r.read("max_slope_deg", &c->max_slope_deg);
-  r.read("min_segment_cells", &c->min_segment_cells);
-  r.read("thin_ratio", &c->thin_ratio);
-  r.read("max_step_height", &c->max_step_height);
-  r.read("min_passage_cells", &c->min_passage_cells);
-  r.read("level_slope_deg", &c->level_slope_deg);
-  r.read("max_gap_cells", &c->max_gap_cells);
-  r.read("measured_step_test", &c->measured_step_test);
-  r.read("mark_drop_offs", &c->mark_drop_offs);
-  r.read("drop_off_radius", &c->drop_off_radius);
-  r.read("drop_off_min_drop", &c->drop_off_min_drop);
-  return r.result(c->validate());
-}
-
 std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* c) {
-  std::string err;
-  if (!(err = fromRosParam(pnh, &c->grid)).empty()) return err;
-  if (!(err = fromRosParam(pnh, &c->height_map)).empty()) return err;
-  if (!(err = fromRosParam(pnh, &c->segmentation)).empty()) return err;
-  if (!(err = fromRosParam(pnh, &c->plane_fit)).empty()) return err;
-  if (!(err = fromRosParam(pnh, &c->labelling)).empty()) return err;
-  Reader r(pnh);
-  r.read("skip_stationary_frames", &c->skip_stationary_frames);
-  r.read("stationary_translation", &c->stationary_translation);
-  r.read("grid_look_ahead", &c->grid_look_ahead);
-  r.read("stationary_rotation_deg", &c->stationary_rotation_deg);
-  r.read("scroll_with_robot", &c->scroll_with_robot);
-  r.read("max_cell_age", &c->max_cell_age);
-  return r.result(c->validate());
+  return readParams(pnh, safetyMapperFields(), c);
 }
 
 std::string SafetyMapRosConfig::validate() const {
@@ -124,51 +45,81 @@ std::string SafetyMapRosConfig::validate() const {
   return os.str();
 }
 
+const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
+  using R = SafetyMapRosConfig;
+  static const ParamFieldList<R> list = [] {
+    ParamFieldList<R> l;
+    l.section("Nodelet");
+    l.add("input", &R::input)
+        .oneOf({"disparity", "cloud"})
+        .doc(
+            "input type: stereo_msgs/DisparityImage + CameraInfo, or sensor_msgs/PointCloud2 "
+            "from any depth sensor.");
+    l.add("fixed_frame", &R::fixed_frame)
+        .rangeText("non-empty")
+        .doc("frame the map is built in; only needs to be locally consistent (000 Sec. III).");
+    l.add("base_frame", &R::base_frame)
+        .rangeText("non-empty")
+        .doc("robot frame, origin on the ground under the robot (000 Alg. 1 step 2).");
+    l.add("queue_size", &R::queue_size)
+        .closed(1, 1000)
+        .doc(
+            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
+            "CameraInfo).");
+    l.add("approximate_sync", &R::approximate_sync)
+        .doc(
+            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
+            "CameraInfo sync (our matcher, see Bad input).");
+    l.add("max_rate", &R::max_rate)
+        .closed(0, 1000)
+        .unit("Hz")
+        .live(SafetyMapLevel::kRos)
+        .doc(
+            "most frames processed per second, 0 = every frame; newer frames replace a waiting "
+            "one.");
+    l.add("tf_timeout", &R::tf_timeout)
+        .closed(0, 10)
+        .unit("s")
+        .doc("wait for the base frame's transform.");
+    l.add("disparity_step", &R::disparity_step).closed(1, 16).doc("use every n-th pixel.");
+    l.add("time_jump_reset", &R::time_jump_reset)
+        .closed(0, 3600)
+        .unit("s")
+        .doc(
+            "stamps going back by more than this, with the clock going back too (a bag "
+            "restarted), reset the map once; otherwise the frame is dropped (a stale message "
+            "never wipes the map).");
+    l.add("max_tf_wait", &R::max_tf_wait)
+        .openClosed(0, 3600)
+        .unit("s")
+        .doc(
+            "a frame whose transform arrived later than this after the frame is dropped (tf "
+            "stalled: its pose would be interpolated across the gap).");
+    l.add("reject_frozen_input", &R::reject_frozen_input)
+        .doc(
+            "drop a frame whose disparity / cloud is byte for byte the previous frame's under a "
+            "new stamp (a frozen camera or driver); false for a noiseless simulator that repeats "
+            "frames.");
+    l.add("stale_input_timeout", &R::stale_input_timeout)
+        .openClosed(0, 3600)
+        .unit("s")
+        .doc("WARN in /diagnostics after this long without input or without a usable frame.");
+    l.add("save_prefix", &R::save_prefix)
+        .rangeText("non-empty")
+        .doc("default prefix of `~save` (<prefix>.bt, .pgm, .yaml and _labels.png).");
+    l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.setValidator([](const R& c) { return c.validate(); });
+    return l;
+  }();
+  return list;
+}
+
 std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* c) {
-  Reader r(pnh);
-  r.read("input", &c->input);
-  r.read("fixed_frame", &c->fixed_frame);
-  r.read("base_frame", &c->base_frame);
-  r.read("queue_size", &c->queue_size);
-  r.read("approximate_sync", &c->approximate_sync);
-  r.read("max_rate", &c->max_rate);
-  r.read("tf_timeout", &c->tf_timeout);
-  r.read("disparity_step", &c->disparity_step);
-  r.read("time_jump_reset", &c->time_jump_reset);
-  r.read("save_prefix", &c->save_prefix);
-  r.read("reject_frozen_input", &c->reject_frozen_input);
-  r.read("stale_input_timeout", &c->stale_input_timeout);
-  r.read("max_tf_wait", &c->max_tf_wait);
-  return r.result(c->validate());
+  return readParams(pnh, safetyMapRosFields(), c);
 }
 
 std::vector<std::string> safetyMapParameterNames() {
-  return {
-      // VoxelGridConfig
-      "voxel_size", "size_x", "size_y", "size_z", "z_below_robot", "incr_high", "incr_low", "decr",
-      "occ_threshold", "lop_min", "lop_max", "point_list_capacity", "max_range", "min_range",
-      // HeightMapConfig
-      "robot_height",
-      // GroundSegmentationConfig
-      "planning_radius", "height_tolerance", "connectivity", "seed_radius", "segment_islands",
-      "island_max_span",
-      // PlaneFitConfig
-      "min_points", "min_xy_stddev", "plane_vertical_margin",
-      // SafetyLabellingConfig
-      "max_slope_deg", "min_segment_cells", "thin_ratio", "max_step_height", "min_passage_cells",
-      "level_slope_deg", "max_gap_cells", "measured_step_test", "mark_drop_offs", "drop_off_radius",
-      "drop_off_min_drop",
-      // SafetyMapperConfig
-      "skip_stationary_frames", "stationary_translation", "stationary_rotation_deg",
-      "grid_look_ahead", "scroll_with_robot", "max_cell_age",
-      // SafetyMapRosConfig
-      "input", "fixed_frame", "base_frame", "queue_size", "approximate_sync", "max_rate",
-      "tf_timeout", "disparity_step", "time_jump_reset", "save_prefix", "reject_frozen_input",
-      "stale_input_timeout", "max_tf_wait",
-      // Obstacle cue (obstacle_params.h)
-      "obstacle_cue", "obstacle_cue_lifetime", "obstacle_cue_min_points",
-      // diagnostic_updater's own
-      "diagnostic_period"};
+  return nodeletParameterNames("safety_map");
 }
 
 std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,

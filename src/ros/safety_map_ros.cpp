@@ -3,6 +3,7 @@
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
+#include "stereo_safety_map/ros/reconfigure_fields.h"
 
 #include <nav_msgs/OccupancyGrid.h>
 #include <octomap/OcTree.h>
@@ -118,10 +119,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     diagnostics_->force_update();
     return;
   }
-  std::vector<std::string> known = safetyMapParameterNames();
-  for (const std::string& p : landmarkParameterNames())
-    known.push_back(p);
-  for (const std::string& p : unknownParameters(pnh_, known)) {
+  for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
     ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
   }
   // The core's frame path (stereo_frame_processor.h), the one the offline evaluators run.
@@ -861,79 +859,27 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
 
 void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
   if (!processor_) return;
+  // The live fields of the two lists (core/config_fields.h, ros/params.h), by name.
   SafetyMapperConfig c = mapper_config_;
-  c.grid.incr_high = config.incr_high;
-  c.grid.incr_low = config.incr_low;
-  c.grid.decr = config.decr;
-  c.grid.occ_threshold = config.occ_threshold;
-  c.height_map.robot_height = config.robot_height;
-  c.segmentation.planning_radius = config.planning_radius;
-  c.segmentation.height_tolerance = config.height_tolerance;
-  c.labelling.max_slope_deg = config.max_slope_deg;
-  c.labelling.level_slope_deg = config.level_slope_deg;
-  c.labelling.min_segment_cells = config.min_segment_cells;
-  c.labelling.thin_ratio = config.thin_ratio;
-  c.labelling.max_step_height = config.max_step_height;
-  c.labelling.min_passage_cells = config.min_passage_cells;
-  c.labelling.mark_drop_offs = config.mark_drop_offs;
-  c.labelling.drop_off_radius = config.drop_off_radius;
-  c.labelling.drop_off_min_drop = config.drop_off_min_drop;
-  c.skip_stationary_frames = config.skip_stationary_frames;
-  c.stationary_translation = config.stationary_translation;
-  c.stationary_rotation_deg = config.stationary_rotation_deg;
-  c.max_cell_age = config.max_cell_age;
-
-  const std::string err = c.validate();
+  SafetyMapRosConfig r = ros_config_;
+  std::string err = fromReconfigure(config, safetyMapperFields(), &c);
+  if (err.empty()) err = fromReconfigure(config, safetyMapRosFields(), &r);
+  if (err.empty()) err = c.validate();
+  if (err.empty()) err = r.validate();
   if (!err.empty()) {
     ROS_ERROR_STREAM(name_ << ": reconfiguration refused, keeping the previous values: " << err);
     // Hand the current values back to the server (and so to rqt_reconfigure).
-    const SafetyMapperConfig& o = mapper_config_;
-    config.incr_high = o.grid.incr_high;
-    config.incr_low = o.grid.incr_low;
-    config.decr = o.grid.decr;
-    config.occ_threshold = o.grid.occ_threshold;
-    config.robot_height = o.height_map.robot_height;
-    config.planning_radius = o.segmentation.planning_radius;
-    config.height_tolerance = o.segmentation.height_tolerance;
-    config.max_slope_deg = o.labelling.max_slope_deg;
-    config.level_slope_deg = o.labelling.level_slope_deg;
-    config.min_segment_cells = o.labelling.min_segment_cells;
-    config.thin_ratio = o.labelling.thin_ratio;
-    config.max_step_height = o.labelling.max_step_height;
-    config.min_passage_cells = o.labelling.min_passage_cells;
-    config.mark_drop_offs = o.labelling.mark_drop_offs;
-    config.drop_off_radius = o.labelling.drop_off_radius;
-    config.drop_off_min_drop = o.labelling.drop_off_min_drop;
-    config.skip_stationary_frames = o.skip_stationary_frames;
-    config.stationary_translation = o.stationary_translation;
-    config.stationary_rotation_deg = o.stationary_rotation_deg;
-    config.max_cell_age = o.max_cell_age;
-    config.max_rate = ros_config_.max_rate;
+    toReconfigure(mapper_config_, safetyMapperFields(), &config);
+    toReconfigure(ros_config_, safetyMapRosFields(), &config);
     return;
   }
-  ros_config_.max_rate = config.max_rate;
-  max_rate_ = config.max_rate;
+  ros_config_.max_rate = r.max_rate;
+  max_rate_ = r.max_rate;
 
-  const VoxelGridConfig& g = mapper_config_.grid;
-  const bool grid_changed = c.grid.incr_high != g.incr_high || c.grid.incr_low != g.incr_low ||
-                            c.grid.decr != g.decr || c.grid.occ_threshold != g.occ_threshold;
-  const auto& o = mapper_config_;
-  const bool stage_changed = c.height_map.robot_height != o.height_map.robot_height ||
-                             c.segmentation.planning_radius != o.segmentation.planning_radius ||
-                             c.segmentation.height_tolerance != o.segmentation.height_tolerance ||
-                             c.labelling.max_slope_deg != o.labelling.max_slope_deg ||
-                             c.labelling.level_slope_deg != o.labelling.level_slope_deg ||
-                             c.labelling.min_segment_cells != o.labelling.min_segment_cells ||
-                             c.labelling.thin_ratio != o.labelling.thin_ratio ||
-                             c.labelling.max_step_height != o.labelling.max_step_height ||
-                             c.labelling.min_passage_cells != o.labelling.min_passage_cells ||
-                             c.labelling.mark_drop_offs != o.labelling.mark_drop_offs ||
-                             c.labelling.drop_off_radius != o.labelling.drop_off_radius ||
-                             c.labelling.drop_off_min_drop != o.labelling.drop_off_min_drop ||
-                             c.skip_stationary_frames != o.skip_stationary_frames ||
-                             c.stationary_translation != o.stationary_translation ||
-                             c.stationary_rotation_deg != o.stationary_rotation_deg ||
-                             c.max_cell_age != o.max_cell_age;
+  uint32_t changed = 0;
+  changedFields(safetyMapperFields(), mapper_config_, c, &changed);
+  const bool grid_changed = (changed & SafetyMapLevel::kGrid) != 0;
+  const bool stage_changed = (changed & SafetyMapLevel::kStage) != 0;
   if (!grid_changed && !stage_changed) return;
 
   // In place, under the core's lock: the worker finishes its frame first, and the next frame

@@ -4,6 +4,8 @@
 // dynamic_reconfigure forces valid window sizes and refuses what the core refuses.
 #include "disparity_test_util.h"
 
+#include "../core/param_field_checks.h"
+
 #include "stereo_safety_map/ros/disparity_params.h"
 #include "stereo_safety_map/ros/params.h"
 
@@ -171,6 +173,35 @@ TEST(DisparityParams, CoreNamesAreTranslatedToParameterNames) {
             "spike_min_region_size = 0");
   EXPECT_EQ(stereo_safety_map::toParameterNames("uniqueness.uniqueness_ratio = 101"),
             "uniqueness_ratio = 101");
+}
+
+// Every field just outside each bound of its range (param_field_checks.h), read by the
+// nodelet's own reader: refused, naming the parameter.
+template <typename Config>
+int expectEveryOutOfRangeValueRefused(const stereo_safety_map::ParamFieldList<Config>& list) {
+  int probed = 0;
+  for (const auto& f : list.fields()) {
+    if (!f.set) continue;
+    for (const auto& v : param_field_checks::probesOf(f.info).outside) {
+      ros::NodeHandle pnh("/disparity_params_case_" + std::to_string(++case_counter));
+      std::visit([&](const auto& value) { pnh.setParam(f.info.name, value); }, v);
+      Config c{};
+      const std::string err = fromRosParam(pnh, &c);
+      EXPECT_NE(err.find("invalid parameter"), std::string::npos)
+          << f.info.name << " = " << stereo_safety_map::formatParamValue(v) << ": " << err;
+      EXPECT_NE(param_field_checks::wordAt(err, f.info.name), std::string::npos)
+          << f.info.name << " = " << stereo_safety_map::formatParamValue(v)
+          << " refused without naming it: " << err;
+      ++probed;
+    }
+  }
+  return probed;
+}
+
+TEST(DisparityParams, EveryFieldOutOfItsRangeIsRefusedByName) {
+  int probed = expectEveryOutOfRangeValueRefused(stereo_safety_map::disparityRosFields());
+  probed += expectEveryOutOfRangeValueRefused(stereo_safety_map::disparityPipelineFields());
+  EXPECT_GT(probed, 40);
 }
 
 TEST(DisparityParams, NodeletRefusesAnInvalidConfiguration) {

@@ -3,6 +3,10 @@
 // invalid configuration refuses to run and reports it in /diagnostics.
 #include "test_util.h"
 
+#include "../core/param_field_checks.h"
+
+#include "stereo_safety_map/ros/fusion_params.h"
+#include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
 
 #include <gtest/gtest.h>
@@ -110,6 +114,37 @@ TEST(Params, UnknownParametersAreReported) {
       stereo_safety_map::unknownParameters(pnh, stereo_safety_map::safetyMapParameterNames());
   ASSERT_EQ(unknown.size(), 1u);
   EXPECT_EQ(unknown[0], "decrr");
+}
+
+// Every field of `list` just outside each bound of its range (param_field_checks.h), read by
+// the nodelet's own reader: refused, naming the parameter.
+template <typename Config>
+int expectEveryOutOfRangeValueRefused(const stereo_safety_map::ParamFieldList<Config>& list) {
+  int probed = 0;
+  for (const auto& f : list.fields()) {
+    if (!f.set) continue;
+    for (const auto& v : param_field_checks::probesOf(f.info).outside) {
+      ros::NodeHandle pnh("/params_case_" + std::to_string(++case_counter));
+      std::visit([&](const auto& value) { pnh.setParam(f.info.name, value); }, v);
+      Config c{};
+      const std::string err = fromRosParam(pnh, &c);
+      EXPECT_NE(err.find("invalid parameter"), std::string::npos)
+          << f.info.name << " = " << stereo_safety_map::formatParamValue(v) << ": " << err;
+      EXPECT_NE(param_field_checks::wordAt(err, f.info.name), std::string::npos)
+          << f.info.name << " = " << stereo_safety_map::formatParamValue(v)
+          << " refused without naming it: " << err;
+      ++probed;
+    }
+  }
+  return probed;
+}
+
+TEST(Params, EveryFieldOutOfItsRangeIsRefusedByName) {
+  int probed = expectEveryOutOfRangeValueRefused(stereo_safety_map::safetyMapRosFields());
+  probed += expectEveryOutOfRangeValueRefused(stereo_safety_map::safetyMapperFields());
+  probed += expectEveryOutOfRangeValueRefused(stereo_safety_map::landmarkStreamFields());
+  probed += expectEveryOutOfRangeValueRefused(stereo_safety_map::obstacleCueFields());
+  EXPECT_GT(probed, 60);
 }
 
 TEST(Params, NodeletRefusesAnInvalidConfiguration) {

@@ -142,9 +142,10 @@ double yawOfOpticalAxis(const Eigen::Isometry3d& T_fixed_sensor);
 // Parameters: the nodelet's flat keys (config/safety_map.yaml) applied to the core's
 // configuration, so that the offline tools run what the nodelet runs.
 
-/// Applies the keys of the YAML file that name core parameters (others, the nodelets' own
-/// settings, are ignored) and validates. Takes config/safety_map.yaml and config/disparity.yaml
-/// (the disparity nodelet's matcher and post-filters). Empty on success.
+/// Applies the keys of the YAML file that name core parameters (the fields of
+/// core/config_fields.h's stereoFrameProcessorFields(); others, the nodelets' own settings, are
+/// ignored) and validates. Takes config/safety_map.yaml and config/disparity.yaml (the disparity
+/// nodelet's matcher and post-filters). Empty on success.
 std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c);
 /// One `key=value` (same keys as the file; also the disparity stage's: matcher, block_size,
 /// enable_texture, ...). Empty on success.

@@ -3,15 +3,18 @@
 //
 // The core's DisparityPipelineConfig nests one struct per filter (texture.window_size, ...);
 // the parameters are flat (texture_window_size, ...) because dynamic_reconfigure
-// (cfg/Disparity.cfg) shares the names and cannot nest. kDisparityParameterNames below is the one
-// translation between the two; validation messages name the parameter as it is set.
+// (cfg/Disparity.cfg) shares the names and cannot nest. The field list
+// (core/config_fields.h: disparityPipelineFields()) is the one translation between the two;
+// validation messages name the parameter as it is set.
 //
 // Every function returns an empty string when the values are valid, and otherwise one message
 // naming the parameter, its value and the allowed range. Wrong types are refused (an integer
 // parameter given as 2.5 or a string), not truncated; absent parameters keep the defaults.
 #pragma once
 
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/disparity_pipeline.h"
+#include "stereo_safety_map/core/param_fields.h"
 
 #include <ros/node_handle.h>
 
@@ -35,9 +38,10 @@ struct DisparityRosConfig {
   std::string validate() const;
 };
 
-/// "bm" / "sgbm" <-> StereoMatcherType.
-const char* matcherName(StereoMatcherType type);
-bool matcherFromName(const std::string& name, StereoMatcherType* type);
+/// The field list of the nodelet's settings (and diagnostic_period). The pipeline's is
+/// core/config_fields.h's disparityPipelineFields(), with matcherName(), matcherFromName(),
+/// validateDisparityParameters() and toParameterNames().
+const ParamFieldList<DisparityRosConfig>& disparityRosFields();
 
 /// Reads the pipeline parameters (matcher, window sizes, each filter's switch and settings) and
 /// checks them: every parameter against its range (also a disabled filter's, as
@@ -46,16 +50,6 @@ bool matcherFromName(const std::string& name, StereoMatcherType* type);
 /// Sec. 2.2 measures the texture over the matching window.
 std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* config);
 std::string fromRosParam(const ros::NodeHandle& pnh, DisparityRosConfig* config);
-
-/// Ranges of both configs (the ones cfg/Disparity.cfg uses) and the core's own checks, with the
-/// core's names translated to parameter names. `texture_window_param` is the parameter's value
-/// (0 = follows block_size).
-std::string validateDisparityParameters(const DisparityPipelineConfig& config,
-                                        int texture_window_param);
-
-/// Replaces the core's nested names in a validate() message (texture.window_size) with the
-/// parameter names (texture_window_size).
-std::string toParameterNames(const std::string& core_message);
 
 /// Every parameter name the disparity nodelet reads from its private namespace (for the
 /// unknown-parameter warning, params.h's unknownParameters()).

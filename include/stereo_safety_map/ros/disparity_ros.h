@@ -102,7 +102,6 @@ class DisparityRos {
   std::string config_error_;
   DisparityRosConfig ros_config_;
   DisparityPipelineConfig pipeline_config_;  ///< accepted configuration (reconfigure thread)
-  int texture_window_param_ = 0;             ///< ~texture_window_size, 0 = block_size
 
   // Inputs (subscribed lazily, under connect_mutex_).
   std::mutex connect_mutex_;

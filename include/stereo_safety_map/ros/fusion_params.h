@@ -7,9 +7,11 @@
 // parameter, its value and the allowed range.
 #pragma once
 
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/hybrid_safety_map.h"
 #include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/laser_grid.h"
+#include "stereo_safety_map/core/param_fields.h"
 
 #include <ros/node_handle.h>
 
@@ -22,7 +24,7 @@ namespace stereo_safety_map {
 /// LandmarkFilterConfig fields prefixed with landmark_ (landmark_gate_chi2, ...; the depth range
 /// and the stationary-frame thresholds are the mapper's, see LandmarkStreamConfig::forMapper()).
 std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* config);
-/// The names read by the function above.
+/// The names read by the function above (core/config_fields.h: landmarkStreamFields()).
 std::vector<std::string> landmarkParameterNames();
 
 /// Settings of the hybrid safety-map nodelet that are not the core's.
@@ -43,6 +45,16 @@ struct HybridSafetyMapRosConfig {
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;
 };
+
+/// The hybrid nodelet's three configurations, for its one field list.
+struct HybridSafetyMapParams {
+  HybridSafetyMapRosConfig ros;
+  LaserGridConfig laser;
+  HybridSafetyMapConfig hybrid;
+};
+/// The nodelet's settings, the laser grid's (core/config_fields.h: laserGridFields()) and the
+/// combination's (hybridSafetyMapFields()); validation fills the laser grid's width and height.
+const ParamFieldList<HybridSafetyMapParams>& hybridSafetyMapParamsFields();
 
 /// Reads the hybrid nodelet's settings, the laser grid (resolution, log-odds; width / height
 /// from laser_size_x / laser_size_y) and the combination rules. Empty when valid.

@@ -10,8 +10,10 @@
 // refused, not truncated).
 #pragma once
 
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/obstacle_detection.h"
+#include "stereo_safety_map/core/param_fields.h"
 
 #include <ros/node_handle.h>
 
@@ -44,6 +46,11 @@ struct ObstacleCueRosConfig {
   bool enabled = false;
   ObstacleCueConfig cue;
 };
+
+/// Field lists of the nodelet's settings (and diagnostic_period) and of the safety-map nodelet's
+/// obstacle cue; the detector's own is core/config_fields.h's obstacleDetectionFields().
+const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields();
+const ParamFieldList<ObstacleCueRosConfig>& obstacleCueFields();
 
 std::string fromRosParam(const ros::NodeHandle& pnh, ObstacleDetectionConfig* config);
 std::string fromRosParam(const ros::NodeHandle& pnh, ObstacleDetectionRosConfig* config);

@@ -9,7 +9,9 @@
 // parameter, its value and the allowed range (wrong types are refused, not truncated).
 #pragma once
 
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
+#include "stereo_safety_map/core/param_fields.h"
 
 #include <ros/node_handle.h>
 
@@ -32,6 +34,10 @@ struct Occupancy2DRosConfig {
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;
 };
+
+/// The field list of the nodelet's settings (and diagnostic_period); the grid's is
+/// core/config_fields.h's occupancyGrid2DFields().
+const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields();
 
 std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DConfig* config);
 std::string fromRosParam(const ros::NodeHandle& pnh, Occupancy2DRosConfig* config);

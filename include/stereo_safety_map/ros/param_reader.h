@@ -3,8 +3,13 @@
 // value, a parameter of the wrong type (an integer given as 0.5, a string for a number) is
 // refused with a message naming it, never truncated; the first error wins.
 //
+// readFields() / readParams() read a whole field list (core/param_fields.h): every field is read
+// with its type, stored through its accessor, and the list's validation ends the read.
+//
 // Header-only so that a nodelet's parameter file can use it without another library target.
 #pragma once
+
+#include "stereo_safety_map/core/param_fields.h"
 
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -19,9 +24,11 @@ class ParamReader {
  public:
   explicit ParamReader(const ros::NodeHandle& pnh) : pnh_(pnh) {}
 
-  void read(const std::string& name, double* value) {
+  /// Each read returns true when it stored a value: the parameter is set, has the right type and
+  /// no error came before.
+  bool read(const std::string& name, double* value) {
     XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
+    if (!fetch(name, &v)) return false;
     if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
       *value = static_cast<double>(v);
     } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
@@ -31,35 +38,64 @@ class ParamReader {
       // `rosparam set x inf` stores a string; the range checks decide whether inf is allowed.
       *value = std::numeric_limits<double>::infinity();
     } else {
-      fail(name, v, "a number");
+      return fail(name, v, "a number");
     }
+    return true;
   }
-  void read(const std::string& name, int* value) {
+  bool read(const std::string& name, int* value) {
     XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
-      *value = static_cast<int>(v);
-    } else {
-      fail(name, v, "an integer");
-    }
+    if (!fetch(name, &v)) return false;
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeInt) return fail(name, v, "an integer");
+    *value = static_cast<int>(v);
+    return true;
   }
-  void read(const std::string& name, bool* value) {
+  bool read(const std::string& name, bool* value) {
     XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeBoolean) {
-      *value = static_cast<bool>(v);
-    } else {
-      fail(name, v, "true or false");
-    }
+    if (!fetch(name, &v)) return false;
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean) return fail(name, v, "true or false");
+    *value = static_cast<bool>(v);
+    return true;
   }
-  void read(const std::string& name, std::string* value) {
+  bool read(const std::string& name, std::string* value) {
     XmlRpc::XmlRpcValue v;
-    if (!fetch(name, &v)) return;
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeString) {
-      *value = static_cast<std::string>(v);
-    } else {
-      fail(name, v, "a string");
+    if (!fetch(name, &v)) return false;
+    if (v.getType() != XmlRpc::XmlRpcValue::TypeString) return fail(name, v, "a string");
+    *value = static_cast<std::string>(v);
+    return true;
+  }
+
+  /// One field of a field list: read with the field's type and stored through its accessor; a
+  /// value the accessor refuses (an unknown enum name) is an error naming it. External fields
+  /// (read by a library) are skipped.
+  template <typename Config>
+  void read(const ParamField<Config>& field, Config* config) {
+    if (!field.set || !error_.empty()) return;
+    const std::string& name = field.info.name;
+    ParamValue value = field.get(*config);
+    bool got = false;
+    switch (field.info.type) {
+      case ParamType::kBool:
+        got = read(name, &std::get<bool>(value));
+        break;
+      case ParamType::kInt:
+        got = read(name, &std::get<int>(value));
+        break;
+      case ParamType::kDouble:
+        got = read(name, &std::get<double>(value));
+        break;
+      case ParamType::kString:
+        got = read(name, &std::get<std::string>(value));
+        break;
     }
+    if (!got) return;
+    const std::string why = field.set(config, value);
+    if (!why.empty()) error_ = "invalid parameter in " + pnh_.getNamespace() + ": " + why;
+  }
+  /// Every field of `list`, in its order; absent parameters keep their values.
+  template <typename Config>
+  void readFields(const ParamFieldList<Config>& list, Config* config) {
+    for (const ParamField<Config>& f : list.fields())
+      read(f, config);
   }
 
   /// The first type error (empty while there is none).
@@ -77,15 +113,28 @@ class ParamReader {
     if (!error_.empty() || !pnh_.hasParam(name)) return false;
     return pnh_.getParam(name, *v);
   }
-  void fail(const std::string& name, XmlRpc::XmlRpcValue& v, const char* expected) {
+  bool fail(const std::string& name, XmlRpc::XmlRpcValue& v, const char* expected) {
     std::ostringstream os;
     os << "invalid parameter " << pnh_.resolveName(name) << ": must be " << expected << ", got ";
     v.write(os);
     error_ = os.str();
+    return false;
   }
 
   const ros::NodeHandle& pnh_;
   std::string error_;
 };
+
+/// Reads the fields of `list` from pnh's namespace into `config` and validates with the list's
+/// validator: empty when valid, else the first type error or the range message, naming the
+/// parameter (prefixed with the namespace).
+template <typename Config>
+std::string readParams(const ros::NodeHandle& pnh, const ParamFieldList<Config>& list,
+                       Config* config) {
+  ParamReader r(pnh);
+  r.readFields(list, config);
+  if (!r.error().empty()) return r.error();
+  return r.result(list.validate(*config));
+}
 
 }  // namespace stereo_safety_map

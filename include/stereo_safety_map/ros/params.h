@@ -1,20 +1,17 @@
 // Validated loading of the core configs and of the nodelet's own settings from the parameter
 // server (after voxblox's ros_params.h: validate as you read).
 //
-// Parameter names are the config structs' field names, flat in the nodelet's private namespace
-// (~decr, ~max_slope_deg, ...), so that the names in config/safety_map.yaml, in cfg/SafetyMap.cfg
-// and in the core's validate() messages are the same. A parameter that is absent keeps the
-// struct's default (the paper's value). Every function returns an empty string when the values
-// are valid and otherwise one message naming the parameter, its value and the allowed range
+// Parameter names are the names of the field lists (core/config_fields.h, safetyMapRosFields()
+// below), flat in the nodelet's private namespace (~decr, ~max_slope_deg, ...), as in
+// config/safety_map.yaml, cfg/SafetyMap.cfg and the validate() messages. A parameter that is absent
+// keeps the struct's default (the paper's value). Every function returns an empty string when the
+// values are valid and otherwise one message naming the parameter, its value and the allowed range
 // (wrong types too: an integer parameter given as 0.5 or a string is refused, not truncated).
 #pragma once
 
-#include "stereo_safety_map/core/ground_segmentation.h"
-#include "stereo_safety_map/core/height_map.h"
-#include "stereo_safety_map/core/plane_fit.h"
-#include "stereo_safety_map/core/safety_labelling.h"
+#include "stereo_safety_map/core/config_fields.h"
+#include "stereo_safety_map/core/param_fields.h"
 #include "stereo_safety_map/core/safety_mapper.h"
-#include "stereo_safety_map/core/voxel_grid.h"
 
 #include <ros/node_handle.h>
 
@@ -23,12 +20,7 @@
 
 namespace stereo_safety_map {
 
-std::string fromRosParam(const ros::NodeHandle& pnh, VoxelGridConfig* config);
-std::string fromRosParam(const ros::NodeHandle& pnh, HeightMapConfig* config);
-std::string fromRosParam(const ros::NodeHandle& pnh, GroundSegmentationConfig* config);
-std::string fromRosParam(const ros::NodeHandle& pnh, PlaneFitConfig* config);
-std::string fromRosParam(const ros::NodeHandle& pnh, SafetyLabellingConfig* config);
-/// All of the above plus the mapper's own fields (skip_stationary_frames, ...).
+/// The mapper's fields (core/config_fields.h: safetyMapperFields()), validated.
 std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* config);
 
 /// Settings of the safety-map nodelet that are not the core's.
@@ -55,9 +47,12 @@ struct SafetyMapRosConfig {
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;
 };
+/// The field list of SafetyMapRosConfig (and diagnostic_updater's diagnostic_period).
+const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields();
 std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* config);
 
-/// Every parameter name the safety-map nodelet reads from its private namespace.
+/// Every parameter name the safety-map nodelet reads from its private namespace (all its field
+/// lists, ros/nodelet_params.h).
 std::vector<std::string> safetyMapParameterNames();
 
 /// Parameters set in pnh's namespace (first level) that are not in `known`: likely typos.

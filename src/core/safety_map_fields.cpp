@@ -1,0 +1,396 @@
+// The safety map's core parameters: paper 000's mapper, 001's landmark filter, and what the
+// offline tools read (config_fields.h). A new core parameter of the safety map is one add() line
+// here (DEVELOPERS.md, "How to add a parameter").
+#include "stereo_safety_map/core/config_fields.h"
+
+namespace stereo_safety_map {
+
+namespace {
+
+using M = SafetyMapperConfig;
+using L = LandmarkStreamConfig;
+constexpr uint32_t kStage = SafetyMapLevel::kStage;
+constexpr uint32_t kGrid = SafetyMapLevel::kGrid;
+
+// The parts' validate() unprefixed (as each part's reader reported them), then the mapper's
+// own; PlaneFitConfig names vertical_margin, the parameter is plane_vertical_margin.
+std::string mapperParameterError(const M& c) {
+  std::string err;
+  if (!(err = c.grid.validate()).empty()) return err;
+  if (!(err = c.height_map.validate()).empty()) return err;
+  if (!(err = c.segmentation.validate()).empty()) return err;
+  if (!(err = c.plane_fit.validate()).empty()) {
+    const std::string core = "vertical_margin";
+    if (err.compare(0, core.size(), core) == 0) err = "plane_" + err;
+    return err;
+  }
+  if (!(err = c.labelling.validate()).empty()) return err;
+  return c.validate();
+}
+
+ParamFieldList<M> makeMapperFields() {
+  ParamFieldList<M> l;
+  l.section("Voxel grid (000 Sec. IV)");
+  l.add("voxel_size", &M::grid, &VoxelGridConfig::voxel_size)
+      .above(0)
+      .unit("m")
+      .doc("l_v, the voxel side (000 Sec. IV: 0.1 m).");
+  l.add("size_x", &M::grid, &VoxelGridConfig::size_x)
+      .above(0)
+      .rangeText(">= voxel_size")
+      .unit("m")
+      .doc("grid extent along x, at most the core's voxel limit (000 Sec. VII-D: 10 x 10 x 3 m).");
+  l.add("size_y", &M::grid, &VoxelGridConfig::size_y)
+      .above(0)
+      .rangeText(">= voxel_size")
+      .unit("m")
+      .doc("grid extent along y (000 Sec. VII-D).");
+  l.add("size_z", &M::grid, &VoxelGridConfig::size_z)
+      .above(0)
+      .rangeText(">= voxel_size")
+      .unit("m")
+      .doc("grid extent along z (000 Sec. VII-D).");
+  l.add("z_below_robot", &M::grid, &VoxelGridConfig::z_below_robot)
+      .atLeast(0)
+      .rangeText("[0, size_z]")
+      .unit("m")
+      .doc("grid depth below the robot's base; drops down to it stay inside the grid (ours).");
+  l.add("incr_high", &M::grid, &VoxelGridConfig::incr_high)
+      .closed(0, 32767)
+      .live(kGrid)
+      .doc("incr_H, log-odds added to the voxel a point falls in (000 Sec. IV: 10).");
+  l.add("incr_low", &M::grid, &VoxelGridConfig::incr_low)
+      .closed(0, 32767)
+      .live(kGrid)
+      .doc("incr_L, log-odds added to its fore and aft neighbours on the ray (000 Sec. IV: 4).");
+  l.add("decr", &M::grid, &VoxelGridConfig::decr)
+      .closed(0, 32767)
+      .live(kGrid)
+      .doc(
+          "decr, log-odds subtracted from each voxel between the fore neighbour and the camera "
+          "(000 Sec. IV; Sec. VII-A evaluates 1, 3, 5).");
+  l.add("occ_threshold", &M::grid, &VoxelGridConfig::occ_threshold)
+      .closed(1, 32767)
+      .rangeText("[1, lop_max]")
+      .live(kGrid)
+      .doc("occ_t, a voxel is occupied at log-odds >= occ_t (000 Sec. IV: 100).");
+  l.add("lop_min", &M::grid, &VoxelGridConfig::lop_min)
+      .closed(-32768, -1)
+      .doc("lower log-odds clamp, so that the map can change its mind (ours).");
+  l.add("lop_max", &M::grid, &VoxelGridConfig::lop_max)
+      .closed(1, 32767)
+      .doc("upper log-odds clamp (ours).");
+  l.add("point_list_capacity", &M::grid, &VoxelGridConfig::point_list_capacity)
+      .closed(1, 255)
+      .doc(
+          "points kept per voxel, closest to the camera first (000 Sec. IV: \"fixed size\", no "
+          "value).");
+  l.add("max_range", &M::grid, &VoxelGridConfig::max_range)
+      .above(0)
+      .rangeText("> min_range")
+      .unit("m")
+      .doc("points farther from the camera are ignored (ours).");
+  l.add("min_range", &M::grid, &VoxelGridConfig::min_range)
+      .atLeast(0)
+      .unit("m")
+      .doc("points closer to the camera are ignored (ours).");
+
+  l.section("Height map and segmentation (000 Sec. V-A, Alg. 1)");
+  l.add("robot_height", &M::height_map, &HeightMapConfig::robot_height)
+      .openClosed(0, 100)
+      .unit("m")
+      .live(kStage)
+      .doc("robot height above its base: the robot passes under anything higher (000 Sec. V-A).");
+  l.add("planning_radius", &M::segmentation, &GroundSegmentationConfig::planning_radius)
+      .openClosed(0, 1000)
+      .unit("m")
+      .live(kStage)
+      .doc("R_max: farther cells are Unexamined (000 Alg. 1 step 3: 4 m).");
+  l.add("height_tolerance", &M::segmentation, &GroundSegmentationConfig::height_tolerance)
+      .closed(0, 1000)
+      .unit("voxels")
+      .live(kStage)
+      .doc("w_T: neighbour height difference that may start a new segment (000 Alg. 1 step 13).");
+  l.add("connectivity", &M::segmentation, &GroundSegmentationConfig::connectivity)
+      .oneOf({"4", "8"})
+      .doc("flood-fill neighbourhood (not in the paper; 8 as the neighbourhood of 000 Sec. VI).");
+  l.add("seed_radius", &M::segmentation, &GroundSegmentationConfig::seed_radius)
+      .closed(0, 1000)
+      .unit("m")
+      .doc(
+          "the camera cannot see under the chair: the robot's segment starts at the best "
+          "observed cell within this radius (ours).");
+  l.add("segment_islands", &M::segmentation, &GroundSegmentationConfig::segment_islands)
+      .doc(
+          "observed ground cut off from the robot's segment by unobserved cells becomes segments "
+          "of its own, judged by Alg. 2, instead of Non-ground columns (ours; false = 000's Alg. "
+          "1).");
+  l.add("island_max_span", &M::segmentation, &GroundSegmentationConfig::island_max_span)
+      .closed(0, 1000)
+      .unit("voxels")
+      .doc(
+          "columns whose occupied voxels span more (faces of obstacles) never join an island "
+          "segment (ours).");
+  l.add("footprint_radius", &M::segmentation, &GroundSegmentationConfig::footprint_radius)
+      .closed(0, 5)
+      .unit("m")
+      .doc(
+          "the robot stands on ground: unobserved cells this close to the base are ground at the "
+          "base's height and seed the robot's segment (ours; 0 = 000's seed rule alone).");
+
+  l.section("Plane fit (000 Sec. V-B)");
+  l.add("min_points", &M::plane_fit, &PlaneFitConfig::min_points)
+      .closed(3, 1000000)
+      .doc("fewest points for a valid plane; fewer leave the segment Unknown (ours).");
+  l.add("min_xy_stddev", &M::plane_fit, &PlaneFitConfig::min_xy_stddev)
+      .openClosed(0, 10)
+      .unit("m")
+      .doc("smallest xy spread of the points; below it the plane is undetermined (ours).");
+  l.add("plane_vertical_margin", &M::plane_fit, &PlaneFitConfig::vertical_margin)
+      .closed(0, 3)
+      .unit("voxels")
+      .doc(
+          "voxel layers above and below a segment whose points join its fit, so that a ramp's "
+          "slope is not flattened (ours; 0 = 000 Sec. V-B; off: less robust on small noisy real "
+          "patches).");
+
+  l.section("Labelling (000 Sec. VI, Alg. 2)");
+  l.add("max_slope_deg", &M::labelling, &SafetyLabellingConfig::max_slope_deg)
+      .open(0, 90)
+      .unit("deg")
+      .live(kStage)
+      .doc("theta_max: steeper planes are Non-ground (000 Alg. 2 step 2: 10).");
+  l.add("level_slope_deg", &M::labelling, &SafetyLabellingConfig::level_slope_deg)
+      .closedOpen(0, 90)
+      .rangeText("[0, max_slope_deg]")
+      .unit("deg")
+      .live(kStage)
+      .doc("theta_T: safe planes steeper than this are Inclined (000 Alg. 2 step 28: 3).");
+  l.add("min_segment_cells", &M::labelling, &SafetyLabellingConfig::min_segment_cells)
+      .closed(0, 1000000)
+      .unit("cells")
+      .live(kStage)
+      .doc("n_small: smaller segments are Unknown (000 Alg. 2 step 3: 6).");
+  l.add("thin_ratio", &M::labelling, &SafetyLabellingConfig::thin_ratio)
+      .closed(0, 1000)
+      .live(kStage)
+      .doc(
+          "r_thin: segments with #interior < r_thin #boundary are Unknown (000 Alg. 2 step 4: "
+          "0.1).");
+  l.add("max_step_height", &M::labelling, &SafetyLabellingConfig::max_step_height)
+      .openClosed(0, 10)
+      .unit("m")
+      .live(kStage)
+      .doc("h_T: largest plane height difference the robot crosses (000 Alg. 2 step 17: 0.05).");
+  l.add("min_passage_cells", &M::labelling, &SafetyLabellingConfig::min_passage_cells)
+      .closed(1, 100000)
+      .unit("cells")
+      .live(kStage)
+      .doc(
+          "num_T, the robot's width: crossable border cells needed to reach a neighbouring "
+          "segment (000 Alg. 2 step 21: 5).");
+  l.add("max_gap_cells", &M::labelling, &SafetyLabellingConfig::max_gap_cells)
+      .closed(0, 10)
+      .unit("cells")
+      .doc(
+          "segments this many unobserved cells apart are neighbours in Alg. 2; h_T and num_T "
+          "still decide reachability (ours; 0 = 000 Sec. VI).");
+  l.add("measured_step_test", &M::labelling, &SafetyLabellingConfig::measured_step_test)
+      .doc(
+          "a border cell is also crossable when the measured surface heights of the two cells "
+          "differ by less than h_T: a level floor's plane does not model the start of a ramp in "
+          "its band (ours; false = 000 Alg. 2 steps 15-17).");
+  l.add("small_obstacles", &M::labelling, &SafetyLabellingConfig::small_obstacles)
+      .doc(
+          "a segment Alg. 2 steps 3-4 call Unknown (small, thin, no plane) that stands more than "
+          "h_T above the safe ground beside it is the top of an obstacle: Non-ground (ours; false "
+          "= 000).");
+  l.add("footprint_bridge", &M::labelling, &SafetyLabellingConfig::footprint_bridge)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "the robot's footprint and ground this far beyond it with only unobserved cells between "
+          "(the camera's blind zone) are neighbours in Alg. 2; h_T and num_T decide (ours; 0 = "
+          "off).");
+  l.add("drop_off_margin", &M::labelling, &SafetyLabellingConfig::drop_off_margin)
+      .doc(
+          "border cells of safe segments beside an observed surface lower by more than "
+          "max(h_T, drop_off_min_drop) are Non-ground: stereo carries a drop's upper edge over "
+          "the lower level (ours; false = 000).");
+  l.add("mark_drop_offs", &M::labelling, &SafetyLabellingConfig::mark_drop_offs)
+      .live(kStage)
+      .doc("annotate potential drop-off edges (000 Sec. VI).");
+  l.add("drop_off_radius", &M::labelling, &SafetyLabellingConfig::drop_off_radius)
+      .closed(0, 10)
+      .unit("m")
+      .live(kStage)
+      .doc("how \"close\" lower cells must be to a drop-off edge (000 Sec. VI gives no value).");
+  l.add("drop_off_min_drop", &M::labelling, &SafetyLabellingConfig::drop_off_min_drop)
+      .closed(0, 10)
+      .unit("m")
+      .live(kStage)
+      .doc("smallest drop that marks an edge (000 Sec. VI \"lower\"; h_T).");
+
+  l.section("Frames (000 Sec. IV)");
+  l.add("skip_stationary_frames", &M::skip_stationary_frames)
+      .live(kStage)
+      .doc("discard frames taken while the camera has not moved (000 Sec. IV).");
+  l.add("stationary_translation", &M::stationary_translation)
+      .closed(0, 100)
+      .unit("m")
+      .live(kStage)
+      .doc(
+          "camera motion below which a frame is stationary (ours; 0.02 skipped every third "
+          "frame of a 0.3 m/s drive at 15 Hz).");
+  l.add("stationary_rotation_deg", &M::stationary_rotation_deg)
+      .closed(0, 180)
+      .unit("deg")
+      .live(kStage)
+      .doc("camera rotation below which a frame is stationary (ours).");
+  l.add("scroll_with_robot", &M::scroll_with_robot)
+      .doc("keep the grid centred on the robot (000 Sec. IV allows either).");
+  l.add("grid_look_ahead", &M::grid_look_ahead)
+      .atLeast(0)
+      .rangeText("[0, min(size_x, size_y) / 2 - planning_radius]")
+      .unit("m")
+      .doc(
+          "centre the window this far ahead of the robot along the camera's heading: with 10 m "
+          "it reaches 6 m ahead and R_max behind (ours; 0 = centred on the robot, 000).");
+  l.add("max_cell_age", &M::max_cell_age)
+      .closed(0, 86400)
+      .unit("s")
+      .live(kStage)
+      .doc(
+          "Level / Inclined cells whose column got no point for longer fall back to Unknown, 0 = "
+          "off; Non-ground never changes (ours, observation_age.h; README, "
+          "[Reliability](#reliability)).");
+  l.add("obstacle_memory", &M::obstacle_memory)
+      .doc(
+          "a cell that held an obstacle stays Non-ground until free space is observed there (its "
+          "occupied voxels emptied by passing rays) (ours; false = 000, which recomputes the map "
+          "from the grid).");
+  l.add("relevel", &M::relevel, &FrameLevellingConfig::enabled)
+      .doc(
+          "correct each frame's pitch, roll and height on the robot's level ground in the previous "
+          "map: chassis bobbing that odometry does not report (ours, frame_levelling.h; false = "
+          "000).");
+  l.add("relevel_max_deg", &M::relevel, &FrameLevellingConfig::max_correction_deg)
+      .openClosed(0, 20)
+      .unit("deg")
+      .doc("larger corrections are refused: not chassis bobbing (ours).");
+  l.setValidator(mapperParameterError);
+  return l;
+}
+
+// The filter's messages name its struct's fields; the parameters carry the landmark_ prefix.
+std::string landmarkParameterError(const L& c) {
+  std::string err = c.filter.validate();
+  const std::string far = "max_landmark_distance";
+  if (err.compare(0, far.size(), far) == 0) {
+    err = "landmark_max_distance" + err.substr(far.size());
+  } else if (!err.empty()) {
+    err = "landmark_" + err;
+  }
+  return err;
+}
+
+ParamFieldList<L> makeLandmarkFields() {
+  ParamFieldList<L> l;
+  l.section(
+      "Landmark filter of the point stream (001 Sec. 4.2; `core/landmark_filter.h`), `input: "
+      "disparity` only. A point reaches the voxel grid only when a permanent landmark confirms "
+      "it; the filter sees the frames the grid integrates (stationary frames are skipped by "
+      "both), so the first `landmark_min_matches` moving frames give no map");
+  l.add("use_landmark_filter", &L::enabled)
+      .doc("turn the filter on (001 Sec. 4.2; off: 000's pipeline as published).");
+  l.add("landmark_sigma_row", &L::filter, &LandmarkFilterConfig::error_model,
+        &StereoErrorModelConfig::sigma_row)
+      .above(0)
+      .unit("px")
+      .doc("sigma_r, row noise of Eq. (1) (001 gives no value).");
+  l.add("landmark_sigma_col", &L::filter, &LandmarkFilterConfig::error_model,
+        &StereoErrorModelConfig::sigma_col)
+      .above(0)
+      .unit("px")
+      .doc("sigma_c, column noise of Eq. (1).");
+  l.add("landmark_sigma_disparity", &L::filter, &LandmarkFilterConfig::error_model,
+        &StereoErrorModelConfig::sigma_disparity)
+      .above(0)
+      .unit("px")
+      .doc("sigma_d, disparity noise of Eq. (1).");
+  l.add("landmark_gate_chi2", &L::filter, &LandmarkFilterConfig::gate_chi2)
+      .above(0)
+      .doc(
+          "gate on the squared Mahalanobis distance (001 Sec. 4.2: chi-square, 3 degrees of "
+          "freedom, 99 %).");
+  l.add("landmark_use_mahalanobis", &L::filter, &LandmarkFilterConfig::use_mahalanobis)
+      .doc("false = the Euclidean baseline of 001 Fig. 4, gated at `~landmark_euclidean_gate`.");
+  l.add("landmark_euclidean_gate", &L::filter, &LandmarkFilterConfig::euclidean_gate)
+      .above(0)
+      .unit("m")
+      .doc("the Euclidean gate when landmark_use_mahalanobis is false (001 Fig. 4).");
+  l.add("landmark_min_matches", &L::filter, &LandmarkFilterConfig::min_matches)
+      .closed(1, 65535)
+      .doc("matches that make a temporary landmark permanent (not in 001).");
+  l.add("landmark_time_window", &L::filter, &LandmarkFilterConfig::time_window)
+      .above(0)
+      .unit("s")
+      .doc(
+          "a temporary landmark without min_matches matches within this time is removed (not "
+          "in 001).");
+  l.add("landmark_stale_time", &L::filter, &LandmarkFilterConfig::stale_time)
+      .above(0)
+      .rangeText("> 0 or .inf")
+      .unit("s")
+      .doc(
+          "a permanent landmark in view that stops matching for this long is removed (moved "
+          "objects; 001 keeps them).");
+  l.add("landmark_max_landmarks", &L::filter, &LandmarkFilterConfig::max_landmarks)
+      .closed(1, 1 << 30)
+      .rangeText("[1, 2^30]")
+      .doc("capacity; new landmarks are refused beyond it (ours).");
+  l.add("landmark_max_search_radius_px", &L::filter, &LandmarkFilterConfig::max_search_radius_px)
+      .closed(1, 256)
+      .unit("px")
+      .doc("cap on a landmark's candidate window (ours).");
+  l.add("landmark_max_distance", &L::filter, &LandmarkFilterConfig::max_landmark_distance)
+      .above(0)
+      .rangeText(">= max_range")
+      .unit("m")
+      .doc("landmarks farther from the camera are dropped: a local map (ours).");
+  l.setValidator(landmarkParameterError);
+  return l;
+}
+
+ParamFieldList<StereoFrameProcessorConfig> makeProcessorFields() {
+  using P = StereoFrameProcessorConfig;
+  ParamFieldList<P> l;
+  l.include(safetyMapperFields(), &P::mapper);
+  l.section("Reprojection");
+  l.add("disparity_step", &P::disparity_step)
+      .closed(1, 16)
+      .doc("use every n-th pixel in rows and columns.");
+  l.include(landmarkStreamFields(), &P::landmark_filter);
+  l.include(disparityPipelineFields(), &P::disparity);
+  l.setValidator([](const P& c) { return c.validate(); });
+  return l;
+}
+
+}  // namespace
+
+const ParamFieldList<SafetyMapperConfig>& safetyMapperFields() {
+  static const ParamFieldList<SafetyMapperConfig> list = makeMapperFields();
+  return list;
+}
+
+const ParamFieldList<LandmarkStreamConfig>& landmarkStreamFields() {
+  static const ParamFieldList<LandmarkStreamConfig> list = makeLandmarkFields();
+  return list;
+}
+
+const ParamFieldList<StereoFrameProcessorConfig>& stereoFrameProcessorFields() {
+  static const ParamFieldList<StereoFrameProcessorConfig> list = makeProcessorFields();
+  return list;
+}
+
+}  // namespace stereo_safety_map

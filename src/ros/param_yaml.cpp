@@ -1,0 +1,61 @@
+#include "stereo_safety_map/ros/param_yaml.h"
+
+#include <climits>
+#include <exception>
+
+namespace stereo_safety_map {
+
+std::string yamlToParamValue(const YAML::Node& node, ParamType type, ParamValue* value) {
+  if (!node.IsScalar()) return "not a single value";
+  const std::string& text = node.Scalar();
+  try {
+    switch (type) {
+      case ParamType::kBool:
+        *value = node.as<bool>();
+        return "";
+      case ParamType::kInt: {
+        // as<int>() reads 010 as octal; an integer parameter is a decimal integer literal.
+        std::size_t used = 0;
+        const long v = std::stol(text, &used, 10);
+        if (used != text.size() || v < INT_MIN || v > INT_MAX) break;
+        *value = static_cast<int>(v);
+        return "";
+      }
+      case ParamType::kDouble:
+        *value = node.as<double>();
+        return "";
+      case ParamType::kString:
+        *value = node.as<std::string>();
+        return "";
+    }
+  } catch (const std::exception&) {
+  }
+  const char* expected = type == ParamType::kBool  ? "true or false"
+                         : type == ParamType::kInt ? "an integer"
+                                                   : "a number";
+  return "'" + text + "' is not " + expected;
+}
+
+std::string loadYamlMap(const std::string& path, YAML::Node* root) {
+  try {
+    *root = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    return "cannot read " + path + ": " + e.what();
+  }
+  if (!root->IsMap()) return path + " is not a YAML map of parameters";
+  return "";
+}
+
+std::string parseAssignment(const std::string& assignment, YAML::Node* root) {
+  const std::size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) return "--set needs key=value, got " + assignment;
+  try {
+    *root = YAML::Node(YAML::NodeType::Map);
+    (*root)[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
+  } catch (const std::exception& e) {
+    return "--set " + assignment + ": " + e.what();
+  }
+  return "";
+}
+
+}  // namespace stereo_safety_map
