@@ -236,6 +236,10 @@ std::string SafetyGateConfig::validate() const {
     os << "margin = " << margin << ", must be in [0, 5] m";
   } else if (out(margin_angle_deg, 0.0, 180.0)) {
     os << "margin_angle_deg = " << margin_angle_deg << ", must be in [0, 180] deg";
+  } else if (out(safe_memory, 0.0, 60.0)) {
+    os << "safe_memory = " << safe_memory << ", must be in [0, 60] s";
+  } else if (max_hole_cells < 0 || max_hole_cells > 100) {
+    os << "max_hole_cells = " << max_hole_cells << ", must be in [0, 100]";
   } else if (out(max_incline_deg, 0.0, 90.0) || max_incline_deg <= 0.0 || max_incline_deg >= 90.0) {
     os << "max_incline_deg = " << max_incline_deg << ", must be in (0, 90) deg";
   } else if (out(reverse_speed_limit, 0.0, 10.0)) {
@@ -310,7 +314,116 @@ Pose2D SafetyGate::poseAt(const Pose2D& start, double v, double omega, double la
   return p;
 }
 
-SafetyGate::Hazard SafetyGate::classify(const SafetyMap& map, int u, int v, GateCell* cell) const {
+SafetyGate::Hazard SafetyGate::classify(const SafetyMap& map, int u, int v, GateCell* cell) {
+  const Hazard h = classifyCell(map, u, v, cell);
+  if (h == Hazard::kUnknown && cell->inside_map && cell->label == SafetyLabel::kUnknown &&
+      (remembered(u, v, cell) || smallEnclosedHole(map, u, v))) {
+    return Hazard::kNone;
+  }
+  return h;
+}
+
+bool SafetyGate::remembered(int u, int v, GateCell* cell) const {
+  if (config_.safe_memory <= 0.0 || mem_stamp_ < 0.0) return false;
+  const int du = u - mem_min_u_, dv = v - mem_min_v_;
+  if (du < 0 || dv < 0 || du >= mem_width_ || dv >= mem_height_) return false;
+  const MemoryCell& m = memory_[static_cast<std::size_t>(dv) * mem_width_ + du];
+  if (m.stamp < 0.0 || mem_stamp_ - m.stamp > config_.safe_memory) return false;
+  if (cell != nullptr) cell->slope_deg = m.slope_deg;
+  return true;
+}
+
+void SafetyGate::clearMemory() {
+  memory_.clear();
+  mem_width_ = mem_height_ = 0;
+  mem_stamp_ = -1.0;
+}
+
+int SafetyGate::rememberedCells() const {
+  int n = 0;
+  for (int v = 0; v < mem_height_; ++v) {
+    for (int u = 0; u < mem_width_; ++u) {
+      const MemoryCell& m = memory_[static_cast<std::size_t>(v) * mem_width_ + u];
+      n += m.stamp >= 0.0 && mem_stamp_ - m.stamp <= config_.safe_memory;
+    }
+  }
+  return n;
+}
+
+void SafetyGate::observe(const SafetyMap& map, double stamp) {
+  const std::size_t n = static_cast<std::size_t>(std::max(map.width, 0)) *
+                        static_cast<std::size_t>(std::max(map.height, 0));
+  if (config_.safe_memory <= 0.0 || map.width <= 0 || map.height <= 0 || map.labels.size() != n) {
+    return;
+  }
+  if (!std::isfinite(stamp) || stamp < mem_stamp_ || map.resolution != mem_resolution_) {
+    clearMemory();  // time went back (a bag restarted), or another grid
+  }
+  if (!std::isfinite(stamp)) return;
+  // Carry the remembered cells over to the new window (the map scrolls with the robot).
+  memory_scratch_.assign(n, MemoryCell());
+  for (int v = 0; v < map.height; ++v) {
+    const int ov = map.min_v + v - mem_min_v_;
+    if (ov < 0 || ov >= mem_height_) continue;
+    for (int u = 0; u < map.width; ++u) {
+      const int ou = map.min_u + u - mem_min_u_;
+      if (ou < 0 || ou >= mem_width_) continue;
+      memory_scratch_[static_cast<std::size_t>(v) * map.width + u] =
+          memory_[static_cast<std::size_t>(ov) * mem_width_ + ou];
+    }
+  }
+  memory_.swap(memory_scratch_);
+  mem_min_u_ = map.min_u;
+  mem_min_v_ = map.min_v;
+  mem_width_ = map.width;
+  mem_height_ = map.height;
+  mem_resolution_ = map.resolution;
+  mem_stamp_ = stamp;
+  GateCell cell;
+  for (int v = 0; v < map.height; ++v) {
+    for (int u = 0; u < map.width; ++u) {
+      MemoryCell& m = memory_[static_cast<std::size_t>(v) * map.width + u];
+      const Hazard h = classifyCell(map, map.min_u + u, map.min_v + v, &cell);
+      if (h == Hazard::kNone) {
+        m.stamp = stamp;
+        m.label = cell.label;
+        m.slope_deg = std::isfinite(cell.slope_deg) ? static_cast<float>(cell.slope_deg) : 0.0f;
+      } else if (h != Hazard::kUnknown || cell.label == SafetyLabel::kUnexamined) {
+        m.stamp = -1.0;  // a hazard now: forget that it was safe
+      }
+    }
+  }
+}
+
+bool SafetyGate::smallEnclosedHole(const SafetyMap& map, int u, int v) {
+  const int max_cells = config_.max_hole_cells;
+  if (max_cells <= 0) return false;
+  hole_.clear();
+  hole_.emplace_back(u, v);
+  GateCell scratch;
+  // Breadth-first over 8-connected Unknown cells: every other neighbour must be ground the gate
+  // accepts (a hazard, Unexamined or the map's edge leaves the hole open).
+  for (std::size_t k = 0; k < hole_.size(); ++k) {
+    const int cu = hole_[k].first, cv = hole_[k].second;
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        const std::pair<int, int> n(cu + du, cv + dv);
+        if (std::find(hole_.begin(), hole_.end(), n) != hole_.end()) continue;
+        const Hazard h = classifyCell(map, n.first, n.second, &scratch);
+        if (h == Hazard::kNone) continue;
+        if (h != Hazard::kUnknown || !scratch.inside_map ||
+            scratch.label != SafetyLabel::kUnknown || static_cast<int>(hole_.size()) >= max_cells) {
+          return false;
+        }
+        hole_.push_back(n);
+      }
+    }
+  }
+  return true;
+}
+
+SafetyGate::Hazard SafetyGate::classifyCell(const SafetyMap& map, int u, int v,
+                                            GateCell* cell) const {
   cell->u = u;
   cell->v = v;
   cell->x = u * map.resolution;

@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 using namespace stereo_safety_map;
 
@@ -306,12 +308,14 @@ TEST(SafetyGate, InclinedSteeperThanTheLimitStopsGentlerIsAllowed) {
 TEST(SafetyGate, UnknownInsideTheStopZoneStops) {
   SafetyGate gate;
   SafetyMap map = levelMap();
-  setRect(&map, kFront + 0.35, -0.1, kFront + 0.35, 0.1, SafetyLabel::kUnknown);  // a hole
+  // Unseen ground across the path (a region too large to be a hole in the map).
+  setRect(&map, kFront + 0.35, -1.0, kFront + 0.45, 1.0, SafetyLabel::kUnknown);
   GateDecision d = gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1);
   EXPECT_EQ(d.state, GateState::kStopped) << d.text;
   EXPECT_EQ(d.reason, GateReason::kUnknown);
-  // Unexamined too, and cells outside the map window.
-  setRect(&map, kFront + 0.35, -0.1, kFront + 0.35, 0.1, SafetyLabel::kUnexamined);
+  // Unexamined too (even one cell), and cells outside the map window.
+  map = levelMap();
+  setRect(&map, kFront + 0.35, 0.0, kFront + 0.35, 0.0, SafetyLabel::kUnexamined);
   EXPECT_EQ(gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).reason, GateReason::kUnknown);
   const SafetyMap small = levelMap(-1.0, -1.0, 0.9, 1.0);  // ends 0.2 m ahead
   d = gate.evaluate(small, kOrigin, 1.0, 0.0, 0.1);
@@ -326,6 +330,93 @@ TEST(SafetyGate, UnknownInsideTheStopZoneStops) {
   map = levelMap();
   setRect(&map, -0.4, -0.3, 0.7, 0.3, SafetyLabel::kUnknown);
   EXPECT_EQ(gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).state, GateState::kAllowed);
+}
+
+TEST(SafetyGate, SmallHolesEnclosedBySafeGroundAreBridged) {
+  SafetyGate gate;
+  const double x = kFront + 0.35;
+  for (const int cells : {1, 4, 5}) {
+    SafetyMap map = levelMap();
+    // A hole of `cells` cells in a row across the path.
+    setRect(&map, x, -0.2, x, -0.2 + (cells - 1) * kRes, SafetyLabel::kUnknown);
+    const GateDecision d = gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1);
+    if (cells <= gate.config().max_hole_cells) {
+      EXPECT_EQ(d.state, GateState::kAllowed) << cells << " cells: " << d.text;
+    } else {
+      EXPECT_EQ(d.state, GateState::kStopped) << cells << " cells: " << d.text;
+      EXPECT_EQ(d.reason, GateReason::kUnknown);
+    }
+  }
+  // A hole next to a drop-off edge, or to too steep ground, is not bridged.
+  SafetyMap map = levelMap();
+  setRect(&map, x, 0.0, x, 0.0, SafetyLabel::kUnknown);
+  setRect(&map, x + kRes, 0.0, x + kRes, 0.0, SafetyLabel::kLevel, true, 0);
+  GateDecision d = gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1);
+  EXPECT_EQ(d.state, GateState::kStopped) << d.text;
+  EXPECT_EQ(d.reason, GateReason::kUnknown) << d.text;  // the hole, entered before the edge
+  EXPECT_EQ(d.cell.u, cellOf(x));
+  map = levelMap();
+  const int steep = addSegment(&map, SafetyLabel::kInclined, 15.0);
+  setRect(&map, x, 0.0, x, 0.0, SafetyLabel::kUnknown);
+  setRect(&map, x + 3 * kRes, -0.1, x + 3 * kRes, 0.1, SafetyLabel::kInclined, false, steep);
+  setRect(&map, x + kRes, -0.1, x + 2 * kRes, 0.1, SafetyLabel::kUnknown);  // joins it: 7 cells
+  EXPECT_EQ(gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).reason, GateReason::kUnknown);
+  // Bridging off.
+  SafetyGateConfig strict;
+  strict.max_hole_cells = 0;
+  SafetyGate strict_gate(strict);
+  map = levelMap();
+  setRect(&map, x, 0.0, x, 0.0, SafetyLabel::kUnknown);
+  EXPECT_EQ(strict_gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).reason, GateReason::kUnknown);
+  EXPECT_EQ(gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).state, GateState::kAllowed);
+}
+
+TEST(SafetyGate, CellsSeenSafeAMomentAgoAreRemembered) {
+  SafetyGate gate;  // safe_memory 2 s
+  const double x = kFront + 0.35;
+  SafetyMap seen = levelMap();
+  // The same ground a map later: a patch too large to be a hole has turned Unknown.
+  SafetyMap flicker = levelMap();
+  setRect(&flicker, x, -0.2, x + 0.2, 0.2, SafetyLabel::kUnknown);
+  EXPECT_EQ(gate.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1).state, GateState::kStopped);
+  gate.observe(seen, 10.0);
+  gate.observe(flicker, 11.0);
+  EXPECT_GT(gate.rememberedCells(), 0);
+  GateDecision d = gate.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1);
+  EXPECT_EQ(d.state, GateState::kAllowed) << d.text;
+  // Not after safe_memory.
+  gate.observe(flicker, 12.5);
+  d = gate.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1);
+  EXPECT_EQ(d.state, GateState::kStopped) << d.text;
+  EXPECT_EQ(d.reason, GateReason::kUnknown);
+  // A hazard in between erases the memory of its cells.
+  SafetyMap hazard = levelMap();
+  setRect(&hazard, x, -0.2, x + 0.2, 0.2, SafetyLabel::kNonGround);
+  gate.observe(seen, 20.0);
+  gate.observe(hazard, 20.5);
+  gate.observe(flicker, 21.0);
+  EXPECT_EQ(gate.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1).state, GateState::kStopped);
+  // Memory never turns a hazard safe.
+  gate.observe(seen, 30.0);
+  gate.observe(hazard, 30.5);
+  EXPECT_EQ(gate.evaluate(hazard, kOrigin, 1.0, 0.0, 0.1).reason, GateReason::kNonGround);
+  // Stamps going back (a bag restarted) clear it.
+  gate.observe(seen, 40.0);
+  gate.observe(flicker, 5.0);
+  EXPECT_EQ(gate.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1).state, GateState::kStopped);
+  // The window scrolls with the robot: memory follows the cells, not the indices.
+  SafetyMap shifted = levelMap(-3.0, -4.0, 5.0, 4.0);
+  setRect(&shifted, x, -0.2, x + 0.2, 0.2, SafetyLabel::kUnknown);
+  gate.observe(seen, 50.0);
+  gate.observe(shifted, 50.5);
+  EXPECT_EQ(gate.evaluate(shifted, kOrigin, 1.0, 0.0, 0.1).state, GateState::kAllowed);
+  // Off.
+  SafetyGateConfig c;
+  c.safe_memory = 0.0;
+  SafetyGate forgetful(c);
+  forgetful.observe(seen, 10.0);
+  forgetful.observe(flicker, 10.1);
+  EXPECT_EQ(forgetful.evaluate(flicker, kOrigin, 1.0, 0.0, 0.1).state, GateState::kStopped);
 }
 
 TEST(SafetyGate, ReverseOnlyOverRememberedSafeCellsAndAtTheReverseLimit) {
@@ -485,13 +576,38 @@ TEST(SafetyGate, NeverAddsSpeedAndNeverEntersAHazard) {
         for (int cu = cellOf(lo.x()) - 1; cu <= cellOf(hi.x()) + 1; ++cu) {
           const Eigen::Vector2d cc(cu * kRes, cv * kRes);
           if (!squareTouchesPolygon(poly, cc, 0.5 * kRes)) continue;
-          bool hazard = !map.inside(cu, cv);
-          if (!hazard) {
-            const int k = map.index(cu, cv);
+          auto unsafe = [&](int u, int v) {
+            if (!map.inside(u, v)) return true;
+            const int k = map.index(u, v);
             const SafetyLabel l = map.labels[k];
-            hazard = l == SafetyLabel::kNonGround || l == SafetyLabel::kUnknown ||
-                     map.drop_off[k] != 0 ||
-                     (l == SafetyLabel::kInclined && map.segment[k] == steep);
+            return l == SafetyLabel::kNonGround || l == SafetyLabel::kUnknown ||
+                   l == SafetyLabel::kUnexamined || map.drop_off[k] != 0 ||
+                   (l == SafetyLabel::kInclined && map.segment[k] == steep);
+          };
+          bool hazard = unsafe(cu, cv);
+          if (hazard && map.inside(cu, cv) &&
+              map.labels[map.index(cu, cv)] == SafetyLabel::kUnknown) {
+            // A hole of at most max_hole_cells Unknown cells (8-connected) enclosed by safe
+            // ground is bridged.
+            std::vector<std::pair<int, int>> hole = {{cu, cv}};
+            bool open = false;
+            for (std::size_t h = 0; h < hole.size() && !open; ++h) {
+              for (int dv = -1; dv <= 1 && !open; ++dv) {
+                for (int du = -1; du <= 1 && !open; ++du) {
+                  const std::pair<int, int> n(hole[h].first + du, hole[h].second + dv);
+                  if (std::find(hole.begin(), hole.end(), n) != hole.end()) continue;
+                  if (!unsafe(n.first, n.second)) continue;
+                  if (map.inside(n.first, n.second) &&
+                      map.labels[map.index(n.first, n.second)] == SafetyLabel::kUnknown &&
+                      static_cast<int>(hole.size()) < c.max_hole_cells) {
+                    hole.push_back(n);
+                  } else {
+                    open = true;
+                  }
+                }
+              }
+            }
+            hazard = open;
           }
           if (!hazard) continue;
           // Cells under the chair at the start may be driven along or away from, not into;

@@ -10,7 +10,9 @@
 //  - a potential drop-off edge (000 Sec. VI: "should be treated as requiring further
 //    observation"),
 //  - an Inclined cell steeper than max_incline_deg (or whose slope is not known),
-//  - an Unknown or Unexamined cell, or a cell outside the map window: the map cannot vouch for it.
+//  - an Unknown or Unexamined cell, or a cell outside the map window: the map cannot vouch for it
+//    (except small holes enclosed by safe ground, see max_hole_cells, and cells seen safe in the
+//    last seconds, see safe_memory).
 //
 // The zone the gate must know (the stop zone) is the footprint, grown by footprint_padding, swept
 // along the commanded arc (constant curvature: v and omega braked together) over the distance the
@@ -52,6 +54,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace stereo_safety_map {
@@ -76,6 +79,23 @@ struct SafetyGateConfig {
   /// Further turn past the predicted stop that must still be safe [deg], [0, 180]; for arcs the
   /// margin ends at whichever of `margin` and this comes first.
   double margin_angle_deg = 10.0;
+  /// Holes in the map: an Unknown region of at most this many cells (4-connected) whose every
+  /// neighbour is a safe cell the gate accepts (not a drop-off edge, not too steep) is taken as
+  /// the ground around it, [0, 100]; 0 = every Unknown cell stops. Stereo finds no match on some
+  /// patches of ground (weak texture, the uniqueness test), and 000's map leaves such columns
+  /// Unknown; 4 cells (0.04 m^2) stay below 000's n_small = 6 (Alg. 2 step 3), the size below
+  /// which the map itself calls a segment noise. A real hole shows lower ground or marks its rim
+  /// as potential drop-off edges (000 Sec. VI), and a rim of drop-off edges is never bridged.
+  int max_hole_cells = 4;
+  /// Memory of safe cells [s], [0, 60]; 0 = off. A cell that a map observed with observe() at
+  /// most this long before the latest one called safe (Level / Inclined, not a drop-off edge,
+  /// not too steep) and that the latest map calls Unknown is taken as that safe ground: 000's
+  /// segmentation turns single cells and small patches of seen ground Unknown from one map to
+  /// the next (a column whose voxel above the floor collects stereo noise splits off as a
+  /// segment too small to judge, Alg. 2 step 3), and the chair must not stop on every such
+  /// flicker. A hazard in a later map erases the memory of its cell; memory never makes a
+  /// hazard, Unexamined or a cell outside the map safe.
+  double safe_memory = 2.0;
   /// Inclined cells steeper than this stop the chair [deg], (0, 90). Default theta_max of 000
   /// Alg. 2 step 2 (the map calls steeper ground Non-ground); lower it for a comfort limit.
   double max_incline_deg = 10.0;
@@ -193,6 +213,15 @@ class SafetyGate {
     return d;
   }
 
+  /// Remembers the safe cells of a map taken at `stamp` [s] (see safe_memory). Call it once per
+  /// map, before evaluate() on that map. Stamps going back, a non-finite stamp or a map of
+  /// another resolution clear the memory first.
+  void observe(const SafetyMap& map, double stamp);
+  /// Forgets every remembered cell (e.g. when the map's frame changes).
+  void clearMemory();
+  /// Cells currently remembered safe within safe_memory of the latest observed map.
+  int rememberedCells() const;
+
   /// A stop for a reason found outside the core (no map, wrong frame, no tf, command timeout):
   /// zero output, `text` as given; the geometry is cleared (fill `footprint` with footprintAt()
   /// when a pose is known).
@@ -210,7 +239,12 @@ class SafetyGate {
   };
   enum class Hazard : std::uint8_t { kNone = 0, kUnknown, kTooSteep, kDropOff, kNonGround };
 
-  Hazard classify(const SafetyMap& map, int u, int v, GateCell* cell) const;
+  /// classifyCell(), then Unknown cells remembered safe or in a small enclosed hole are safe.
+  Hazard classify(const SafetyMap& map, int u, int v, GateCell* cell);
+  /// The label alone (no memory, no holes).
+  Hazard classifyCell(const SafetyMap& map, int u, int v, GateCell* cell) const;
+  /// Whether Unknown cell (u, v) lies in a hole of at most max_hole_cells enclosed by safe cells.
+  bool smallEnclosedHole(const SafetyMap& map, int u, int v);
   Pose2D poseAt(const Pose2D& start, double v, double omega, double lambda) const;
   void place(const Pose2D& pose, std::vector<Eigen::Vector2d>* poly) const;
 
@@ -218,6 +252,19 @@ class SafetyGate {
   double r_max_ = 0.0;            ///< farthest footprint vertex from the origin [m]
   std::vector<LocalCell> cells_;  ///< the sweep's window, reused
   std::vector<Eigen::Vector2d> poly_, poly0_, hull_pts_;
+  std::vector<std::pair<int, int>> hole_;  ///< hole search scratch
+
+  /// Remembered safe cells on the window of the latest observed map (see safe_memory).
+  struct MemoryCell {
+    double stamp = -1.0;  ///< when last seen safe, < 0 never
+    SafetyLabel label = SafetyLabel::kUnknown;
+    float slope_deg = 0.0f;
+  };
+  bool remembered(int u, int v, GateCell* cell) const;
+  std::vector<MemoryCell> memory_, memory_scratch_;
+  int mem_min_u_ = 0, mem_min_v_ = 0, mem_width_ = 0, mem_height_ = 0;
+  double mem_resolution_ = 0.0;
+  double mem_stamp_ = -1.0;  ///< stamp of the latest observed map, < 0 none
 };
 
 /// Signed distance of `p` to the polygon's boundary: negative inside.
