@@ -16,6 +16,8 @@ constexpr int kMaxSteps = 100000;         // a sweep longer than this is refused
 constexpr int kMaxWindowCells = 4000000;  // 2000 x 2000 cells
 /// A cell the footprint already covers stops the chair when its centre comes this much closer.
 constexpr double kApproachEpsilon = 1e-4;  // [m]
+/// theta_T of 000 Alg. 2 step 28: planes flatter than this are level.
+constexpr double kLevelSlopeDeg = 3.0;
 
 bool finite(const Eigen::Vector2d& p) {
   return std::isfinite(p.x()) && std::isfinite(p.y());
@@ -132,6 +134,8 @@ std::string describe(const GateCell& c) {
     os << "cell outside the map";
   } else if (c.drop_off && c.label != SafetyLabel::kNonGround) {
     os << "potential drop-off edge";
+  } else if (c.label == SafetyLabel::kLevel && std::isfinite(c.slope_deg) && c.slope_deg > 0.0) {
+    os << "foot of a " << std::setprecision(1) << c.slope_deg << " deg slope";
   } else if (c.label == SafetyLabel::kInclined) {
     if (std::isfinite(c.slope_deg)) {
       os << "Inclined cell of " << std::setprecision(1) << c.slope_deg << " deg";
@@ -236,6 +240,8 @@ std::string SafetyGateConfig::validate() const {
     os << "margin = " << margin << ", must be in [0, 5] m";
   } else if (out(margin_angle_deg, 0.0, 180.0)) {
     os << "margin_angle_deg = " << margin_angle_deg << ", must be in [0, 180] deg";
+  } else if (out(ramp_foot_height, 0.0, 1.0)) {
+    os << "ramp_foot_height = " << ramp_foot_height << ", must be in [0, 1] m";
   } else if (out(safe_memory, 0.0, 60.0)) {
     os << "safe_memory = " << safe_memory << ", must be in [0, 60] s";
   } else if (max_hole_cells < 0 || max_hole_cells > 100) {
@@ -315,12 +321,70 @@ Pose2D SafetyGate::poseAt(const Pose2D& start, double v, double omega, double la
 }
 
 SafetyGate::Hazard SafetyGate::classify(const SafetyMap& map, int u, int v, GateCell* cell) {
-  const Hazard h = classifyCell(map, u, v, cell);
+  Hazard h = classifyCell(map, u, v, cell);
   if (h == Hazard::kUnknown && cell->inside_map && cell->label == SafetyLabel::kUnknown &&
       (remembered(u, v, cell) || smallEnclosedHole(map, u, v))) {
-    return Hazard::kNone;
+    h = Hazard::kNone;
+  }
+  if (h == Hazard::kNone) {
+    const int du = u - win_u0_, dv = v - win_v0_;
+    if (du >= 0 && dv >= 0 && du < win_w_ && dv < win_h_) {
+      const float slope = foot_slope_[static_cast<std::size_t>(dv) * win_w_ + du];
+      if (slope > 0.0f) {
+        cell->slope_deg = slope;
+        return Hazard::kTooSteep;
+      }
+    }
   }
   return h;
+}
+
+void SafetyGate::markRampFeet(const SafetyMap& map, int u0, int v0, int w, int h) {
+  win_u0_ = u0;
+  win_v0_ = v0;
+  win_w_ = w;
+  win_h_ = h;
+  foot_slope_.assign(static_cast<std::size_t>(w) * h, 0.0f);
+  if (config_.ramp_foot_height <= 0.0 || map.segment.size() != map.labels.size()) return;
+  const double res = map.resolution;
+  for (const SegmentInfo& s : map.segments) {
+    const GroundPlane& p = s.plane;
+    // Sloped ground the chair may not enter: Non-ground segments whose plane is inclined (too
+    // steep, Alg. 2 step 2, or an unreachable slope; Alg. 1's height bands cut a ramp into
+    // segments whose planes come out flatter than the ramp) and Inclined ones above the gate's
+    // limit. The planes of small Unknown segments are noise (Alg. 2 step 3).
+    const bool steep_ground = s.label == SafetyLabel::kNonGround && p.slope_deg > kLevelSlopeDeg;
+    const bool too_steep =
+        s.label == SafetyLabel::kInclined && p.slope_deg > config_.max_incline_deg;
+    if (!p.valid || !std::isfinite(p.slope_deg) || !(steep_ground || too_steep) ||
+        s.cells.empty()) {
+      continue;
+    }
+    const double g = std::hypot(p.a, p.b);
+    if (!(g > 1e-9)) continue;
+    const Eigen::Vector2d dir(p.a / g, p.b / g);  // along the slope
+    // A slope the chair may not drive is at least max_incline_deg steep.
+    const double reach =
+        std::min(1.0, config_.ramp_foot_height /
+                          std::tan(std::max(p.slope_deg, config_.max_incline_deg) * kDegToRad));
+    const int steps = static_cast<int>(std::ceil(reach / (0.5 * res)));
+    for (const int k : s.cells) {
+      if (k < 0 || k >= static_cast<int>(map.labels.size())) continue;
+      const int cu = map.min_u + k % map.width, cv = map.min_v + k / map.width;
+      // Cells far from the window cannot reach it.
+      if (cu < u0 - steps || cv < v0 - steps || cu >= u0 + w + steps || cv >= v0 + h + steps) {
+        continue;
+      }
+      for (int i = -steps; i <= steps; ++i) {
+        const double d = i * 0.5 * res;
+        const int fu = static_cast<int>(std::lround(cu + d * dir.x() / res)) - u0;
+        const int fv = static_cast<int>(std::lround(cv + d * dir.y() / res)) - v0;
+        if (fu < 0 || fv < 0 || fu >= w || fv >= h) continue;
+        float& f = foot_slope_[static_cast<std::size_t>(fv) * w + fu];
+        f = std::max(f, static_cast<float>(p.slope_deg));
+      }
+    }
+  }
 }
 
 bool SafetyGate::remembered(int u, int v, GateCell* cell) const {
@@ -563,6 +627,7 @@ void SafetyGate::evaluate(const SafetyMap& map, const Pose2D& pose, double v, do
     return;
   }
   cells_.assign(static_cast<std::size_t>(w) * h, LocalCell());
+  markRampFeet(map, u0, v0, w, h);
   hull_pts_.clear();
 
   auto touchRange = [&](const std::vector<Eigen::Vector2d>& poly, int* ua, int* ub, int* va,

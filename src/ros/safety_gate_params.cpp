@@ -129,6 +129,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyGateRosConfig* rc, Sa
   r.read("max_hole_cells", &g->max_hole_cells);
   r.read("safe_memory", &g->safe_memory);
   r.read("max_incline_deg", &g->max_incline_deg);
+  r.read("ramp_foot_height", &g->ramp_foot_height);
   r.read("reverse_speed_limit", &g->reverse_speed_limit);
   r.read("slow_down", &g->slow_down);
   r.read("min_speed", &g->min_speed);
@@ -145,18 +146,13 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyGateRosConfig* rc, Sa
 }
 
 std::vector<std::string> safetyGateParameterNames() {
-  return {"fixed_frame",         "footprint_frame",
-          "cmd_timeout",         "tf_timeout",
-          "max_tf_age",          "queue_size",
-          "footprint",           "footprint_padding",
-          "deceleration",        "angular_deceleration",
-          "reaction_time",       "margin",
-          "margin_angle_deg",    "max_hole_cells",
-          "safe_memory",         "max_incline_deg",
-          "reverse_speed_limit", "slow_down",
-          "min_speed",           "min_angular_speed",
-          "max_map_age",         "step_fraction",
-          "max_step_angle_deg",  "diagnostic_period"};
+  return {"fixed_frame",       "footprint_frame",      "cmd_timeout",   "tf_timeout",
+          "max_tf_age",        "queue_size",           "footprint",     "footprint_padding",
+          "deceleration",      "angular_deceleration", "reaction_time", "margin",
+          "margin_angle_deg",  "max_hole_cells",       "safe_memory",   "max_incline_deg",
+          "ramp_foot_height",  "reverse_speed_limit",  "slow_down",     "min_speed",
+          "min_angular_speed", "max_map_age",          "step_fraction", "max_step_angle_deg",
+          "diagnostic_period"};
 }
 
 }  // namespace stereo_safety_map

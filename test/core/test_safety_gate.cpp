@@ -305,6 +305,46 @@ TEST(SafetyGate, InclinedSteeperThanTheLimitStopsGentlerIsAllowed) {
   EXPECT_EQ(gate.evaluate(map, kOrigin, 1.0, 0.0, 0.1).reason, GateReason::kUnknown);
 }
 
+TEST(SafetyGate, TheFootOfASteepRampBeforeItsFirstSteepCellIsAHazard) {
+  // A 14 deg ramp up along +x whose first cells the map calls Non-ground 0.9 m ahead of the
+  // footprint: its foot (where it has not yet risen a voxel layer) is Level in the map.
+  auto rampMap = [](double slope_deg, SafetyLabel label) {
+    SafetyMap map = levelMap();
+    const int s = addSegment(&map, label, slope_deg);
+    map.segments[s].plane.a = std::tan(slope_deg * M_PI / 180.0);
+    setRect(&map, kFront + 0.95, -2.0, 4.0, 2.0, label, false, s);
+    for (int k = 0; k < static_cast<int>(map.labels.size()); ++k) {
+      if (map.segment[k] == s) map.segments[s].cells.push_back(k);
+    }
+    return map;
+  };
+  SafetyGate gate;  // ramp_foot_height 0.1 m: 0.40 m of foot at 14 deg
+  GateDecision d = gate.evaluate(rampMap(14.0, SafetyLabel::kNonGround), kOrigin, 0.5, 0.0, 0.1);
+  EXPECT_NE(d.state, GateState::kAllowed) << d.text;
+  EXPECT_EQ(d.reason, GateReason::kTooSteep) << d.text;
+  EXPECT_LT(d.cell.x, kFront + 0.9);
+  EXPECT_NEAR(d.cell.slope_deg, 14.0, 1e-6);
+  // Without it, 0.5 m/s fits before the first Non-ground cell.
+  SafetyGateConfig off;
+  off.ramp_foot_height = 0.0;
+  SafetyGate plain(off);
+  EXPECT_EQ(plain.evaluate(rampMap(14.0, SafetyLabel::kNonGround), kOrigin, 0.5, 0.0, 0.1).state,
+            GateState::kAllowed);
+  // A gentle ramp has no such foot, nor has a flat unreachable segment (a lower level), nor the
+  // plane of a segment too small to judge (Unknown).
+  EXPECT_EQ(gate.evaluate(rampMap(5.0, SafetyLabel::kInclined), kOrigin, 0.5, 0.0, 0.1).state,
+            GateState::kAllowed);
+  EXPECT_EQ(gate.evaluate(rampMap(0.5, SafetyLabel::kNonGround), kOrigin, 0.5, 0.0, 0.1).state,
+            GateState::kAllowed);
+  // An unreachable slope whose plane came out flatter than the ramp (Alg. 1's height bands)
+  // still has a foot, as long as a ramp at the gate's limit.
+  d = gate.evaluate(rampMap(7.0, SafetyLabel::kNonGround), kOrigin, 0.5, 0.0, 0.1);
+  EXPECT_EQ(d.reason, GateReason::kTooSteep) << d.text;
+  SafetyMap noise = rampMap(30.0, SafetyLabel::kUnknown);
+  setRect(&noise, kFront + 0.95, -2.0, 4.0, 2.0, SafetyLabel::kLevel, false, 0);  // only its plane
+  EXPECT_EQ(gate.evaluate(noise, kOrigin, 0.5, 0.0, 0.1).state, GateState::kAllowed);
+}
+
 TEST(SafetyGate, UnknownInsideTheStopZoneStops) {
   SafetyGate gate;
   SafetyMap map = levelMap();

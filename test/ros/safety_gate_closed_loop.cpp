@@ -11,7 +11,8 @@
 // the chair stops before each; along a corridor with walls 0.5 m beside the footprint and up a
 // 5 deg ramp: it reaches the goal. Stop distances (footprint front to hazard) and the slowest
 // gated speed go to the test output (RecordProperty) and, with SSM_GATE_OUT=<dir>, to CSV files
-// for scripts/demo's plot.
+// for scripts/demo's plot. The loop is deterministic (lockstep, seeded renderer);
+// SSM_GATE_SEED=<n> (image noise) and SSM_GATE_START_OFFSET=<m> (start along x) vary it.
 #include "disparity_test_util.h"
 #include "sim_clock.h"
 #include "test_util.h"
@@ -30,6 +31,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -266,7 +268,12 @@ Result GateClosedLoop::run(const std::string& scene_name, double goal, double ma
   for (ds::Primitive& p : sf.scene.primitives)
     p.translate(offset);
   const ds::StereoHeadConfig head = sf.camera;
-  ds::StereoRenderer renderer(sf.scene, head, sf.seed);
+  // Robustness runs: another image noise (SSM_GATE_SEED) and start (SSM_GATE_START_OFFSET [m]
+  // along x, negative = farther from the hazard); CI runs the scene files as they are.
+  const char* seed_env = std::getenv("SSM_GATE_SEED");
+  const char* start_env = std::getenv("SSM_GATE_START_OFFSET");
+  const std::uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : sf.seed;
+  ds::StereoRenderer renderer(sf.scene, head, seed);
   const std::vector<HazardShape> hazards = hazardsOf(sf.scene);
   EXPECT_FALSE(hazards.empty() && goal <= 0.0) << scene_name << ": no hazard* primitive";
 
@@ -286,7 +293,8 @@ Result GateClosedLoop::run(const std::string& scene_name, double goal, double ma
     csv << "t,x,y,z,pitch_deg,v_commanded,v_gated,v_base,state,reason,clearance\n";
   }
 
-  double x = sf.trajectory.start_x, y = sf.trajectory.start_y + offset.y();
+  double x = sf.trajectory.start_x + (start_env ? std::atof(start_env) : 0.0);
+  double y = sf.trajectory.start_y + offset.y();
   const double yaw = sf.trajectory.start_yaw_deg * M_PI / 180.0;
   const double x0 = x, y0 = y;
   double v = 0.0;  // the base's speed

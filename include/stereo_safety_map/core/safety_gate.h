@@ -9,7 +9,8 @@
 //  - a Non-ground cell (obstacle, overhang, too steep, unreachable: 000 Alg. 2),
 //  - a potential drop-off edge (000 Sec. VI: "should be treated as requiring further
 //    observation"),
-//  - an Inclined cell steeper than max_incline_deg (or whose slope is not known),
+//  - an Inclined cell steeper than max_incline_deg (or whose slope is not known), or the foot of
+//    a too steep segment that the map cannot tell from the floor yet (ramp_foot_height),
 //  - an Unknown or Unexamined cell, or a cell outside the map window: the map cannot vouch for it
 //    (except small holes enclosed by safe ground, see max_hole_cells, and cells seen safe in the
 //    last seconds, see safe_memory).
@@ -96,6 +97,15 @@ struct SafetyGateConfig {
   /// flicker. A hazard in a later map erases the memory of its cell; memory never makes a
   /// hazard, Unexamined or a cell outside the map safe.
   double safe_memory = 2.0;
+  /// The foot of a too steep ramp [m], [0, 1]; 0 = off. 000's map finds a slope only where the
+  /// ground has risen (or fallen) a voxel layer away from the floor: below that the ramp's cells
+  /// join the floor's Level segment. The cells of sloped ground the chair may not enter (a
+  /// Non-ground segment whose plane is steeper than theta_T = 3 deg, an Inclined one steeper than
+  /// max_incline_deg) are therefore extended along the slope, both ways, by ramp_foot_height /
+  /// tan(max(slope, max_incline_deg)): with 0.1 m (l_v), 0.40 m for a 14 deg plane, at most
+  /// 0.57 m (10 deg; Alg. 1's height bands cut a steep ramp into segments whose planes come out
+  /// flatter than it).
+  double ramp_foot_height = 0.1;
   /// Inclined cells steeper than this stop the chair [deg], (0, 90). Default theta_max of 000
   /// Alg. 2 step 2 (the map calls steeper ground Non-ground); lower it for a comfort limit.
   double max_incline_deg = 10.0;
@@ -253,6 +263,10 @@ class SafetyGate {
   std::vector<LocalCell> cells_;  ///< the sweep's window, reused
   std::vector<Eigen::Vector2d> poly_, poly0_, hull_pts_;
   std::vector<std::pair<int, int>> hole_;  ///< hole search scratch
+  /// Marks the feet of too steep segments on the sweep's window (ramp_foot_height).
+  void markRampFeet(const SafetyMap& map, int u0, int v0, int w, int h);
+  std::vector<float> foot_slope_;  ///< per window cell: slope of the steep ramp whose foot it is
+  int win_u0_ = 0, win_v0_ = 0, win_w_ = 0, win_h_ = 0;
 
   /// Remembered safe cells on the window of the latest observed map (see safe_memory).
   struct MemoryCell {
