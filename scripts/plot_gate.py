@@ -68,8 +68,13 @@ def main():
             ax.set_ylabel("speed [m/s]")
             ax.legend(fontsize=8, loc="lower right")
         ax = axes[1][k]
-        ax.plot(t, clear, "g-", lw=1.5)
-        ax.axhline(0.0, color="r", lw=1)
+        if any(c >= 0 for c in clear):
+            ax.plot(t, clear, "g-", lw=1.5, label="footprint to nearest hazard [m]")
+            ax.axhline(0.0, color="r", lw=1)
+        else:  # no hazard in the scene: how far it went, and how high (a ramp)
+            ax.plot(t, [float(r["x"]) - x0 for r in rows], "g-", lw=1.5, label="travelled [m]")
+            ax.plot(t, [float(r["z"]) for r in rows], "m-", lw=1.5, label="height [m]")
+            ax.legend(fontsize=8, loc="upper left")
         ax.set_xlabel("time [s]")
         if k == 0:
             ax.set_ylabel("footprint to nearest hazard [m]")
