@@ -14,6 +14,7 @@ namespace {
 constexpr double kDegToRad = M_PI / 180.0;
 constexpr int kMaxSteps = 100000;         // a sweep longer than this is refused (stop)
 constexpr int kMaxWindowCells = 4000000;  // 2000 x 2000 cells
+constexpr double kMaxCoordinate = 1e6;    // [m]: a pose farther out is refused (cell indices)
 /// A cell the footprint already covers stops the chair when its centre comes this much closer.
 constexpr double kApproachEpsilon = 1e-4;  // [m]
 /// theta_T of 000 Alg. 2 step 28: planes flatter than this are level.
@@ -361,7 +362,7 @@ void SafetyGate::markRampFeet(const SafetyMap& map, int u0, int v0, int w, int h
       continue;
     }
     const double g = std::hypot(p.a, p.b);
-    if (!(g > 1e-9)) continue;
+    if (!std::isfinite(p.a) || !std::isfinite(p.b) || !(g > 1e-9)) continue;
     const Eigen::Vector2d dir(p.a / g, p.b / g);  // along the slope
     // A slope the chair may not drive is at least max_incline_deg steep.
     const double reach =
@@ -553,14 +554,16 @@ void SafetyGate::evaluate(const SafetyMap& map, const Pose2D& pose, double v, do
     stop(GateReason::kInvalidCommand, "stopped: the command is not finite", v, omega, out);
     return;
   }
-  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw)) {
-    stop(GateReason::kInvalidPose, "stopped: the footprint pose is not finite", v, omega, out);
+  if (!std::isfinite(pose.x) || !std::isfinite(pose.y) || !std::isfinite(pose.yaw) ||
+      std::abs(pose.x) > kMaxCoordinate || std::abs(pose.y) > kMaxCoordinate) {
+    stop(GateReason::kInvalidPose, "stopped: the footprint pose is not finite (or absurd)", v,
+         omega, out);
     return;
   }
   const std::size_t n_cells = static_cast<std::size_t>(std::max(map.width, 0)) *
                               static_cast<std::size_t>(std::max(map.height, 0));
   if (map.width <= 0 || map.height <= 0 || map.labels.size() != n_cells ||
-      !(map.resolution > 0.0) || !std::isfinite(map.resolution)) {
+      !(map.resolution >= 1e-3 && map.resolution <= 100.0)) {
     stop(GateReason::kNoMap, "stopped: no safety map", v, omega, out);
     place(pose, &out->footprint);
     return;
@@ -617,6 +620,11 @@ void SafetyGate::evaluate(const SafetyMap& map, const Pose2D& pose, double v, do
 
   // The window holding every cell the sweep can touch.
   const double reach = r_max_ + pad + res + lambda_stop * av;
+  if (!(reach / res < 1e6)) {  // also NaN: the cell indices below must fit an int
+    out->reason = GateReason::kUnknown;
+    out->text = "stopped: the stop zone is too large to check";
+    return;
+  }
   const int u0 = static_cast<int>(std::floor((pose.x - reach) / res));
   const int v0 = static_cast<int>(std::floor((pose.y - reach) / res));
   const int w = static_cast<int>(std::ceil((pose.x + reach) / res)) - u0 + 1;
