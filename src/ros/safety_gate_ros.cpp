@@ -411,6 +411,16 @@ void SafetyGateRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) 
   stat.add("fixed frame", ros_config_.fixed_frame);
   stat.add("footprint frame", ros_config_.footprint_frame);
   problems_.addTo(stat);
+  if (cmds_received_ == 0) {  // nothing gated yet: say whether the gate could
+    if (map_.width > 0 && map_problem_ == GateReason::kClear) {
+      stat.summary(DiagnosticStatus::OK,
+                   "waiting for commands on cmd_vel_in (safety map received)");
+    } else {
+      stat.summary(DiagnosticStatus::WARN,
+                   "waiting for commands on cmd_vel_in; " + map_problem_text_);
+    }
+    return;
+  }
   switch (d.reason) {
     case GateReason::kNoMap:
     case GateReason::kStaleMap:
