@@ -1,6 +1,6 @@
 // Helpers for rostests that run on simulated time (/use_sim_time true): a /clock publisher that
-// runs at wall speed and can be jumped forward or back, a moving robot's tf, and a /rosout
-// counter.
+// runs at wall speed and can be jumped forward or back, one that steps, a moving robot's tf, and a
+// /rosout counter.
 #pragma once
 
 #include "test_util.h"
@@ -52,6 +52,49 @@ class SimClock {
   ros::WallTime wall_start_;
   mutable std::mutex mutex_;
   ros::Duration offset_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+/// Publishes /clock in steps: the time set last, repeated every 20 ms (late subscribers get it
+/// too). For tests that advance the clock in lockstep with their input (e.g. one camera frame per
+/// step): nothing on the ROS clock moves between two set() calls.
+class SteppedClock {
+ public:
+  explicit SteppedClock(ros::NodeHandle& nh) {
+    pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    thread_ = std::thread([this] {
+      while (!stop_) {
+        publish();
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    });
+  }
+  ~SteppedClock() {
+    stop_ = true;
+    thread_.join();
+  }
+  void set(const ros::Time& t) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      now_ = t;
+    }
+    publish();
+  }
+  ros::Time now() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return now_;
+  }
+
+ private:
+  void publish() {
+    rosgraph_msgs::Clock c;
+    c.clock = now();
+    if (!c.clock.isZero()) pub_.publish(c);
+  }
+  ros::Publisher pub_;
+  mutable std::mutex mutex_;
+  ros::Time now_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

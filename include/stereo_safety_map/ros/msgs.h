@@ -15,10 +15,14 @@
 #ifdef STEREO_SAFETY_MAP_MESSAGE_HYBRIDSAFETYMAP_H
 #error "include stereo_safety_map/ros/msgs.h instead of stereo_safety_map/HybridSafetyMap.h"
 #endif
+#ifdef STEREO_SAFETY_MAP_MESSAGE_GATESTATE_H
+#error "include stereo_safety_map/ros/msgs.h instead of stereo_safety_map/GateState.h"
+#endif
 
 // The messages' own dependencies first, so that the renaming below reaches nothing but the two
 // message headers.
 #include <geometry_msgs/Point.h>
+#include <geometry_msgs/Twist.h>
 #include <geometry_msgs/Vector3.h>
 #include <nav_msgs/MapMetaData.h>
 #include <std_msgs/Header.h>
@@ -36,3 +40,8 @@
 #define HybridSafetyMap HybridSafetyMapMsg
 #include <stereo_safety_map/HybridSafetyMap.h>
 #undef HybridSafetyMap
+// GateState.msg (the safety gate's decision) likewise meets core/safety_gate.h's GateState: the
+// message is GateStateMsg here.
+#define GateState GateStateMsg
+#include <stereo_safety_map/GateState.h>
+#undef GateState
