@@ -123,6 +123,7 @@ void checkSegments(const HeightMap& hm, const GroundSegments& s) {
   const int n = s.numCells();
   FUZZ_CHECK(static_cast<int>(s.segment_of.size()) == n);
   FUZZ_CHECK(static_cast<int>(s.examined.size()) == n);
+  FUZZ_CHECK(static_cast<int>(s.footprint.size()) == n);
   const int k_max = s.numSegments();
   FUZZ_CHECK(static_cast<int>(s.segment_begin.size()) == k_max + 1);
   FUZZ_CHECK(s.segment_begin[0] == 0);
@@ -135,7 +136,13 @@ void checkSegments(const HeightMap& hm, const GroundSegments& s) {
     for (const int* c = s.cellsBegin(k); c != s.cellsEnd(k); ++c) {
       FUZZ_CHECK(*c >= 0 && *c < n);
       FUZZ_CHECK(s.segment_of[*c] == k);
-      FUZZ_CHECK(hm.atIndex(*c) == s.segment_height[k]);
+      // A footprint cell has no observed height; Alg. 1 takes it at the base's height
+      // (GroundSegmentationConfig::footprint_radius), which is the segment's.
+      if (s.footprint[*c]) {
+        FUZZ_CHECK(hm.atIndex(*c) == HeightMap::kNoHeight);
+      } else {
+        FUZZ_CHECK(hm.atIndex(*c) == s.segment_height[k]);
+      }
       FUZZ_CHECK(s.examined[*c] == 1);
     }
   }
@@ -482,7 +489,8 @@ void fuzzMapper(FuzzedDataProvider& fdp) {
           // The cue only makes cells Non-ground.
           const std::vector<std::uint8_t>& marked = processor.cueMarked();
           const SafetyMap& map = mapper.safetyMap();
-          FUZZ_CHECK(marked.size() == map.labels.size());
+          // Empty when no cue was live (ObstacleCueFusion::apply): nothing marked.
+          FUZZ_CHECK(marked.empty() || marked.size() == map.labels.size());
           for (std::size_t k = 0; k < marked.size(); ++k) {
             if (marked[k]) FUZZ_CHECK(map.labels[k] == SafetyLabel::kNonGround);
           }

@@ -111,13 +111,17 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   auto lowestOf = [&](int cell) { return s.footprint[cell] ? robot_w : hm.lowestAtIndex(cell); };
 
   // Seed of the robot's segment (Alg. 1 steps 2 and 5, with the seed rule of the config):
-  // least height difference to the robot's base first, then nearest, then scan order.
+  // least height difference to the robot's base first, then an observed cell before a footprint
+  // cell, then nearest, then scan order. Observed ground at the base's height within seed_radius
+  // is the robot's segment as in 000; the footprint joins it (below), and carries it alone only
+  // when nothing within seed_radius was observed at that height.
   const int w_t = config_.height_tolerance;
   const long long s2 = std::min(r2, radiusSquaredCells(config_.seed_radius, voxel_size));
   const long long sc = static_cast<long long>(std::floor(std::sqrt(static_cast<double>(s2))));
   {
     long long best_dw = std::numeric_limits<long long>::max();
     long long best_d2 = std::numeric_limits<long long>::max();
+    int best_fp = 2;
     const long long v_lo = std::max<long long>(s.min_v, robot.v - sc);
     const long long v_hi = std::min<long long>(s.min_v + s.height - 1, robot.v + sc);
     const long long u_lo = std::max<long long>(s.min_u, robot.u - sc);
@@ -132,8 +136,10 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
         if (w == HeightMap::kNoHeight || !s.examined[cell]) continue;
         const long long dw = std::llabs(static_cast<long long>(w) - robot.w);
         if (dw > w_t) continue;
-        if (dw < best_dw || (dw == best_dw && d2 < best_d2)) {
+        const int fp = s.footprint[cell];
+        if (dw < best_dw || (dw == best_dw && (fp < best_fp || (fp == best_fp && d2 < best_d2)))) {
           best_dw = dw;
+          best_fp = fp;
           best_d2 = d2;
           s.seed_cell = cell;
         }
@@ -171,7 +177,9 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   };
   // Grows segments from cell c by Alg. 1 steps 5-21; island segments do not take columns that
   // are locked or span more than island_max_span voxels.
-  auto grow = [&](int c, bool island) {
+  // with_footprint: the first segment also holds the footprint's cells when they are at its
+  // height (the robot's segment seeded on observed ground: the robot stands on it).
+  auto grow = [&](int c, bool island, bool with_footprint) {
     pending_.clear();
     std::size_t pending_head = 0;
     auto admissible = [&](int cell) { return !island || groundLike(cell); };
@@ -185,6 +193,14 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
       s.segment_cells.push_back(c);
       to_compare_.clear();
       to_compare_.push_back(c);
+      if (with_footprint && k == 0 && wk == robot_w) {
+        for (int f = 0; f < n; ++f) {
+          if (!s.footprint[f] || s.segment_of[f] >= 0) continue;
+          s.segment_of[f] = k;
+          s.segment_cells.push_back(f);
+          to_compare_.push_back(f);
+        }
+      }
       // Steps 6-18: compare every cell of S_k with its examined neighbours.
       while (!to_compare_.empty()) {
         const int ci = to_compare_.back();
@@ -225,7 +241,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
       }
     }
   };
-  grow(s.seed_cell, false);
+  grow(s.seed_cell, false, true);
   if (s.seed_cell >= 0) s.robot_segment = 0;
 
   if (config_.segment_islands) {
@@ -236,7 +252,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
       if (!s.examined[cell] || s.segment_of[cell] >= 0 || locked_[cell] || compared_[cell])
         continue;
       if (heightOf(cell) == HeightMap::kNoHeight || !groundLike(cell)) continue;
-      grow(cell, true);
+      grow(cell, true, false);
     }
   }
 

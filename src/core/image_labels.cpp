@@ -59,7 +59,9 @@ bool isHit(ImageLabel l, SafetyLabel m) {
 }
 
 std::int64_t cellKey(int u, int v) {
-  return (static_cast<std::int64_t>(u) << 32) ^ static_cast<std::uint32_t>(v);
+  return static_cast<std::int64_t>(
+      (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+      static_cast<std::uint32_t>(v));
 }
 
 struct Votes {

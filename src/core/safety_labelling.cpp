@@ -48,6 +48,10 @@ std::string SafetyLabellingConfig::validate() const {
     return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
   }
   if (max_gap_cells < 0 || max_gap_cells > 10) return "max_gap_cells must be in [0, 10]";
+  if (!std::isfinite(small_obstacle_min_rise) || small_obstacle_min_rise < 0.0 ||
+      small_obstacle_min_rise > 10.0) {
+    return "small_obstacle_min_rise must be in [0, 10] m";
+  }
   if (!std::isfinite(footprint_bridge) || footprint_bridge < 0.0 || footprint_bridge > 10.0) {
     return "footprint_bridge must be in [0, 10] m (0 = off)";
   }
@@ -420,14 +424,20 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   // SafetyLabellingConfig::small_obstacles: what steps 3-4 left Unknown but stands above the safe
   // ground beside it by more than h_T is the top of an obstacle.
   if (config_.small_obstacles) {
+    const double min_rise = std::max(config_.max_step_height, config_.small_obstacle_min_rise);
     for (int k = 0; k < nseg; ++k) {
       if (!small_[k] || seg_state_[k] != kStUnknown || k == rs) continue;
+      // Above every safe segment beside it: a patch at the foot of a ramp continues the ramp,
+      // a patch in a floor's noise is not above the floor by that much.
+      bool beside_safe = false, above_all = true;
       for (int e = edge_begin_[k]; e < edge_begin_[k + 1]; ++e) {
-        if (seg_state_[edges_[e].r] == kStSafe && edges_[e].rise > config_.max_step_height) {
-          seg_state_[k] = kStNonGround;
-          m.segments[k].obstacle = true;
-          break;
-        }
+        if (seg_state_[edges_[e].r] != kStSafe) continue;
+        beside_safe = true;
+        above_all = above_all && edges_[e].rise > min_rise;  // NaN: not above
+      }
+      if (beside_safe && above_all) {
+        seg_state_[k] = kStNonGround;
+        m.segments[k].obstacle = true;
       }
     }
   }

@@ -205,6 +205,12 @@ ParamFieldList<M> makeMapperFields() {
           "a segment Alg. 2 steps 3-4 call Unknown (small, thin, no plane) that stands more than "
           "h_T above the safe ground beside it is the top of an obstacle: Non-ground (ours; false "
           "= 000).");
+  l.add("small_obstacle_min_rise", &M::labelling, &SafetyLabellingConfig::small_obstacle_min_rise)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "the smallest rise above every safe segment beside it that makes such a segment an "
+          "obstacle's top; smaller bumps are within stereo's noise at range (ours).");
   l.add("footprint_bridge", &M::labelling, &SafetyLabellingConfig::footprint_bridge)
       .closed(0, 10)
       .unit("m")

@@ -120,6 +120,7 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
             ? std::min(poses.size(), static_cast<std::size_t>(options.max_frames))
             : poses.size();
     cv::Mat left, right, depth, ids;
+    GroundTruthMap local;
     for (std::size_t i = 0; i < frames; ++i) {
       const RobotPose& truth = poses[i];
       const OdometryErrorModel::FramePoses fp = odometry.next(truth, head);
@@ -129,6 +130,14 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
       degrader.apply(i, truth, head, &left, &right);
       const Eigen::Vector2d robot(truth.x, truth.y);
       scorer.observeFrame(fp.true_left_optical, camera, depth, ids, robot);
+      // The local-horizon ground truth of this frame (reachability within R_max).
+      local = gt;
+      if (relabelGroundTruth(options.ground_truth, robot, options.scoring.planning_radius, &local)
+              .empty()) {
+        scorer.setLocalGroundTruth(&local);
+      } else {
+        scorer.setLocalGroundTruth(nullptr);
+      }
       const Eigen::Isometry2d T_world_odom =
           planar(fp.true_base) * planar(fp.reported_base).inverse();
       const Eigen::Isometry3f T_fixed_sensor = fp.reported_left_optical.cast<float>();

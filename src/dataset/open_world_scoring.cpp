@@ -61,6 +61,7 @@ std::string OpenWorldScoringConfig::validate() const {
 SceneScore& SceneScore::operator+=(const SceneScore& o) {
   tol0 += o.tol0;
   tol1 += o.tol1;
+  local_tol1 += o.local_tol1;
   for (int k = 0; k < kHazardClassCount; ++k)
     by_class[k] += o.by_class[k];
   coverage_cells += o.coverage_cells;
@@ -313,10 +314,23 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
       }
       add(&s->tol1, o1);
       add(&s->by_class[static_cast<int>(classes_[g])], o1);
+      if (local_ != nullptr) {
+        const SafetyLabel lt = local_->labels[g];
+        CellOutcome ol = cellOutcome(l, lt);
+        if (ol == CellOutcome::kFalsePositive &&
+            neighbourOfClass(*local_, gu, gv, SafetyClass::kUnsafe)) {
+          ol = CellOutcome::kTruePositive;
+        } else if (ol == CellOutcome::kFalseNegative &&
+                   neighbourOfClass(*local_, gu, gv, SafetyClass::kSafe)) {
+          ol = CellOutcome::kTrueNegative;
+        }
+        add(&s->local_tol1, ol);
+      }
     }
   }
   s->tol0.maps += 1;
   s->tol1.maps += 1;
+  s->local_tol1.maps += 1;
 
   // Coverage: GT-classified cells within R_max of the robot, seen by the camera so far.
   const Eigen::Isometry2d T_odom_world = T_world_odom.inverse();

@@ -337,11 +337,13 @@ int main(int argc, char** argv) {
           for (std::size_t v = 0; v < variants.size(); ++v) {
             const ds::SceneScore& s = r.scores[v];
             std::fprintf(stderr,
-                         "    %-10s FN %5.2f %% FP %5.2f %% (tol 1) coverage %5.1f %% no seg "
+                         "    %-10s FN %5.2f %% FP %5.2f %% (tol 1; local %5.2f / %5.2f) coverage "
+                         "%5.1f %% no seg "
                          "%4.1f %% forgotten %d obstacles missed %d/%d\n",
                          variants[v].name.c_str(), 100 * fnRate(s.tol1), 100 * fpRate(s.tol1),
-                         100 * coverage(s), 100 * noSegment(s), s.forgotten_cells,
-                         s.obstacles_missed_lenient, s.obstacles_in_view);
+                         100 * fnRate(s.local_tol1), 100 * fpRate(s.local_tol1), 100 * coverage(s),
+                         100 * noSegment(s), s.forgotten_cells, s.obstacles_missed_lenient,
+                         s.obstacles_in_view);
             for (const std::string& m : s.misses)
               std::fprintf(stderr, "        missed %s\n", m.c_str());
           }
@@ -369,12 +371,14 @@ int main(int argc, char** argv) {
       cell.seeds.push_back(r.seed);
       const ds::SceneScore& s = r.scores[v];
       char line[512];
-      std::snprintf(
-          line, sizeof(line), "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d",
-          cell.condition.c_str(), cell.variant.c_str(), static_cast<unsigned long long>(r.seed),
-          r.description.c_str(), s.maps, fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1),
-          fpRate(s.tol1), coverage(s), noSegment(s), s.forgotten_cells, s.obstacles_in_view,
-          s.obstacles_missed_strict, s.obstacles_missed_lenient);
+      std::snprintf(line, sizeof(line),
+                    "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d",
+                    cell.condition.c_str(), cell.variant.c_str(),
+                    static_cast<unsigned long long>(r.seed), r.description.c_str(), s.maps,
+                    fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1), fpRate(s.tol1),
+                    fnRate(s.local_tol1), fpRate(s.local_tol1), coverage(s), noSegment(s),
+                    s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
+                    s.obstacles_missed_lenient);
       scene_lines.push_back(line);
     }
   }
@@ -385,7 +389,8 @@ int main(int argc, char** argv) {
   }
   {
     std::ofstream csv(opt.out + "/scenes.csv");
-    csv << "condition,variant,seed,scene,maps,fn_tol0,fp_tol0,fn_tol1,fp_tol1,coverage,"
+    csv << "condition,variant,seed,scene,maps,fn_tol0,fp_tol0,fn_tol1,fp_tol1,fn_local_tol1,"
+           "fp_local_tol1,coverage,"
            "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
            "obstacles_missed_lenient\n";
     for (const std::string& l : scene_lines)
@@ -407,9 +412,10 @@ int main(int argc, char** argv) {
      << "). Rates in %: mean +- sd over scenes (each scene's rate from sums over its maps), "
         "worst scene. tol 1 = one cell of tolerance at label boundaries.\n\n";
   md << "| condition | variant | scenes | FN tol 0 | FN tol 1 | FP tol 0 | FP tol 1 | coverage | "
-        "maps without robot segment | forgotten obstacle cells | obstacles missed (strict / after "
+        "FN local tol 1 | FP local tol 1 | maps without robot segment | forgotten obstacle cells | "
+        "obstacles missed (strict / after "
      << run.scoring.obstacle_lenient_frames
-     << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::ostringstream classes_md;
   classes_md << "\n## Per hazard class (tol 1)\n\n| condition | variant | class | FN | FP "
                 "|\n|---|---|---|---|---|\n";
@@ -418,6 +424,8 @@ int main(int argc, char** argv) {
     const Stat fn1 = stat(c, [](const ds::SceneScore& s) { return fnRate(s.tol1); });
     const Stat fp0 = stat(c, [](const ds::SceneScore& s) { return fpRate(s.tol0); });
     const Stat fp1 = stat(c, [](const ds::SceneScore& s) { return fpRate(s.tol1); });
+    const Stat lfn = stat(c, [](const ds::SceneScore& s) { return fnRate(s.local_tol1); });
+    const Stat lfp = stat(c, [](const ds::SceneScore& s) { return fpRate(s.local_tol1); });
     const Stat cov = stat(c, coverage, true);
     const Stat seg = stat(c, noSegment);
     ds::SceneScore total;
@@ -435,6 +443,8 @@ int main(int argc, char** argv) {
     jsonStat(j, "fn_tol1", fn1);
     jsonStat(j, "fp_tol0", fp0);
     jsonStat(j, "fp_tol1", fp1);
+    jsonStat(j, "fn_local_tol1", lfn);
+    jsonStat(j, "fp_local_tol1", lfp);
     jsonStat(j, "coverage", cov);
     jsonStat(j, "maps_without_robot_segment", seg);
     j.kv("forgotten_cells", total.forgotten_cells).kv("forgotten_events", total.forgotten_events);

@@ -492,5 +492,36 @@ TEST(GroundSegmentationFootprint, TheFootprintSeedsTheRobotsSegment) {
   EXPECT_EQ(s.segment_of[s.index(3, 2)], 0);
 }
 
+// Observed ground at the base's height within seed_radius seeds the robot's segment as in 000,
+// also when it is not connected to the footprint (the camera's blind zone between them): the
+// footprint joins that segment. Observed ground one index off the base's height does not beat
+// the footprint, which is at the base's height.
+TEST(GroundSegmentationFootprint, ObservedGroundWithinTheSeedRadiusAndTheFootprintAreOneSegment) {
+  // Observed floor from 0.7 m ahead, within the seed radius (1 m), beyond the footprint.
+  HeightMap hm = fromText({"........00000", "........00000", "........00000", "........00000",
+                           "........00000"});
+  GroundSegmentationConfig c;
+  c.footprint_radius = 0.2;
+  c.seed_radius = 1.0;
+  GroundSegmentation seg(c);
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{1, 2, 0}, 0.1, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_FALSE(s.footprint[s.seed_cell]);              // seeded on observed ground
+  EXPECT_EQ(s.segment_of[s.index(10, 2)], 0);          // the floor ahead
+  EXPECT_EQ(s.segment_of[s.index(1, 2)], 0);           // the robot's own cell (footprint)
+  EXPECT_EQ(s.numSegments(), 1);
+  // The floor one index up: the footprint (at the base's height) seeds the robot's segment and
+  // the floor is a segment of its own (a step the labelling judges).
+  HeightMap up = fromText({"........11111", "........11111", "........11111", "........11111",
+                           "........11111"});
+  ASSERT_TRUE(seg.segment(up, VoxelIndex{1, 2, 0}, 0.1, &s));
+  expectConsistent(up, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_TRUE(s.footprint[s.seed_cell]);
+  EXPECT_NE(s.segment_of[s.index(10, 2)], 0);
+}
+
 }  // namespace
 }  // namespace stereo_safety_map

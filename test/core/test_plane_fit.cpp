@@ -260,6 +260,7 @@ TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
   GroundSegmentationConfig sc;
   sc.segment_islands = true;
   sc.seed_radius = 0.0;
+  sc.footprint_radius = 0.0;  // the robot's cell is far from the band: no footprint segment
   GroundSegments s;
   ASSERT_TRUE(GroundSegmentation(sc).segment(hm, VoxelIndex{-10, 0, 0}, 0.1, &s));
   ASSERT_EQ(s.numSegments(), 1);

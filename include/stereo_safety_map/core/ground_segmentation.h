@@ -32,8 +32,10 @@ struct GroundSegmentationConfig {
   /// long time; with the seed rule alone there is then no robot segment and the whole map is
   /// unreachable (Non-ground). The cells within footprint_radius [m] of the robot's cell that
   /// have no observed height are ground at the base's indexed height (GroundSegments::footprint):
-  /// the robot's segment is seeded from them (and SafetyMapper gives a robot segment without
-  /// points of its own the level plane of the base). [0, 5] m.
+  /// they belong to the robot's segment. Observed ground at the base's height within
+  /// seed_radius still seeds it (as in 000) and the footprint joins that segment; only when none
+  /// was observed is the segment seeded on the footprint alone (and SafetyMapper gives a robot
+  /// segment without points of its own the level plane of the base). [0, 5] m.
   double footprint_radius = 0.35;
   /// Island segments (ours; false = 000's Alg. 1 alone). Sparse stereo breaks the observed
   /// ground into islands separated by unobserved cells. Alg. 1 grows segments only from the

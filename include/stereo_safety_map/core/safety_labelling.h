@@ -46,9 +46,17 @@ struct SafetyLabellingConfig {
   /// small patch of ground, wrong for the top of a pole, a bin, a bollard or a chair seat, which
   /// make exactly such segments; a planner that drives through Unknown would drive into them.
   /// With this on, a segment left Unknown by steps 3-4 (or for want of a plane) whose measured
-  /// surface (local surface heights, see measured_step_test) rises above an adjacent safe
-  /// segment's by more than h_T at their border (gaps of max_gap_cells included) is Non-ground.
+  /// surface (local surface heights, see measured_step_test) rises above every adjacent safe
+  /// segment's by more than max(h_T, small_obstacle_min_rise) at their borders (gaps of
+  /// max_gap_cells included) is Non-ground. Every, not any: a fragment at the foot of a ramp
+  /// continues the ramp beside it.
   bool small_obstacles = true;
+  /// [m], [0, 10]: the smallest rise that makes a small segment an obstacle's top. 0.08: the
+  /// top voxel's points of a floor patch in stereo's noise at 3-4 m stand 4-7 cm above the floor
+  /// around it (the closed-loop gate test's corridor and 5 deg ramp, where h_T alone stopped
+  /// the chair on level floor); a 10 cm obstacle's top stands 8-10 cm above it. Bumps of 5-8 cm
+  /// are within the noise and stay Unknown.
+  double small_obstacle_min_rise = 0.08;
   /// Across the camera's blind zone (ours; 0 = off, 000 Sec. VI's touching neighbours). A camera
   /// on the chair sees the ground only from 0.7-1.9 m ahead of the base (its height and pitch);
   /// until the robot has driven over the ground it saw, the cells between its footprint
@@ -75,8 +83,8 @@ struct SafetyLabellingConfig {
   /// surface heights, see measured_step_test), and lower than the segment's plane carried on
   /// to that neighbour, by more than max(h_T, drop_off_min_drop) is Non-ground (the plane test
   /// keeps a ramp's foot, where the ramp's averaged local surface stands above the floor, from
-  /// reading as a drop). Drop-offs whose lower side is hidden (next to Unknown) keep 000's potential
-  /// drop-off edge annotation.
+  /// reading as a drop). Drop-offs whose lower side is hidden (next to Unknown) keep 000's
+  /// potential drop-off edge annotation.
   bool drop_off_margin = true;
   double drop_off_radius = 0.5;
   double drop_off_min_drop = 0.05;  ///< defaults to h_T: a smaller drop is crossable

@@ -138,7 +138,7 @@ class StereoFrameProcessor {
   /// stamp is not finite.
   bool addObstacleCue(double stamp, const std::vector<Eigen::Vector3f>& points_fixed);
   /// Cells the cue marked in the last map (one entry per map cell, 1 = marked; empty when the
-  /// cue is off or did not run on the last map).
+  /// cue is off, did not run on the last map or held no live cue).
   const std::vector<std::uint8_t>& cueMarked() const { return cue_marked_; }
   /// Live cues held, and what the cue did to the last map.
   int cueCount() const { return cue_ ? cue_->size() : 0; }

@@ -68,6 +68,11 @@ struct OpenWorldScoringConfig {
 struct SceneScore {
   ConfusionCounts tol0;
   ConfusionCounts tol1;
+  /// One cell of tolerance against the local-horizon ground truth: reachability from the
+  /// robot's position of the frame within R_max only (relabelGroundTruth), what a map limited
+  /// to R_max (000 Alg. 1 step 3) can know. The scene's ground truth (000 Sec. VII-A) calls a
+  /// lower level safe when a ramp 6 m away reaches it; this one does not.
+  ConfusionCounts local_tol1;
   std::array<ConfusionCounts, kHazardClassCount> by_class;  ///< one cell of tolerance
   std::uint64_t coverage_cells = 0;       ///< GT-classified cells in R_max and swept view
   std::uint64_t coverage_classified = 0;  ///< of which the map classifies
@@ -106,6 +111,9 @@ class OpenWorldScorer {
   void observeFrame(const Eigen::Isometry3d& T_world_camera, const StereoCameraModel& camera,
                     const cv::Mat& depth, const cv::Mat& ids, const Eigen::Vector2d& robot);
 
+  /// The local-horizon ground truth of the current frame (same grid as the scene's), or null.
+  void setLocalGroundTruth(const GroundTruthMap* local) { local_ = local; }
+
   /// One map of variant `variant` made at time `t` [s since the first frame], in the odometry
   /// frame; `T_world_odom` maps its cells into the world (2D), `robot` is the true position.
   void scoreMap(int variant, const SafetyMap& map, double t, const Eigen::Isometry2d& T_world_odom,
@@ -136,6 +144,7 @@ class OpenWorldScorer {
 
   OpenWorldScoringConfig config_;
   const GroundTruthMap& gt_;
+  const GroundTruthMap* local_ = nullptr;
   std::vector<HazardClass> classes_;
   std::vector<std::uint8_t> seen_;           // per GT cell: ground seen by the camera
   std::vector<std::int32_t> obstacle_of_;    // per GT cell: index into obstacles_, -1 none
