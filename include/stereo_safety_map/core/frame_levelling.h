@@ -25,7 +25,7 @@
 namespace stereo_safety_map {
 
 struct FrameLevellingConfig {
-  bool enabled = true;              ///< SafetyMapperConfig::relevel (ours; false = 000)
+  bool enabled = false;             ///< SafetyMapperConfig::relevel (ours; false = 000)
   double max_correction_deg = 3.0;  ///< larger rotations are refused [deg], (0, 20]
   double max_offset = 0.10;         ///< larger vertical offsets are refused [m], (0, 1]
   double max_range = 4.0;           ///< points farther from the camera are not used [m]
