@@ -681,8 +681,13 @@ void SafetyMapRos::ageTimerCb() {
                           << ros_config_.stale_input_timeout
                           << " s): publishing safety_map as all Unknown at the last frame's stamp "
                           << map_stamp_);
-    mapper.ageSafetyMap(now.toSec());
-    publishMap(header, false);
+    // The grid only, unless aging changed the map: the labels keep their content and stamp (their
+    // consumers, the gate and the hybrid map, check its age themselves).
+    if (mapper.ageSafetyMap(now.toSec()) > 0) {
+      publishMap(header, false);
+    } else {
+      publishGrid(header);
+    }
   } else if (mapper.ageSafetyMap(now.toSec()) > 0) {
     // Frames age the map at their stamps; this ages it while they do not come.
     publishMap(header, false);
@@ -704,6 +709,15 @@ void SafetyMapRos::publishMap(const std_msgs::Header& header, bool from_frame) {
     }
     map_stale_ = false;
   }
+  publishGrid(header);
+  auto labels = boost::make_shared<SafetyMapMsg>();
+  toSafetyMapMsg(map, robot_position_, header, labels.get());
+  labels_pub_.publish(labels);
+}
+
+void SafetyMapRos::publishGrid(const std_msgs::Header& header) {
+  const SafetyMapper& mapper = processor_->mapper();
+  const SafetyMap& map = mapper.safetyMap();
   auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
   toOccupancyGrid(map, mapper.config().labelling, ros_config_.costs, header, grid.get());
   if (map_stale_) {
@@ -721,10 +735,6 @@ void SafetyMapRos::publishMap(const std_msgs::Header& header, bool from_frame) {
     obstacles_pub_.publish(cloud);
   }
   map_pub_.publish(grid);
-
-  auto labels = boost::make_shared<SafetyMapMsg>();
-  toSafetyMapMsg(map, robot_position_, header, labels.get());
-  labels_pub_.publish(labels);
 }
 
 void SafetyMapRos::publishOutputs(const std_msgs::Header& header,

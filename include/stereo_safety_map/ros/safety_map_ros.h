@@ -148,6 +148,8 @@ class SafetyMapRos {
   /// now (it is fresh again), false when the timer republishes it (aged, or stale: then the
   /// OccupancyGrid is all Unknown and safety_obstacles is not published).
   void publishMap(const std_msgs::Header& header, bool from_frame);
+  /// The OccupancyGrid (all Unknown while stale) and safety_obstacles (not while stale) alone.
+  void publishGrid(const std_msgs::Header& header);
   /// True when the frame's data are byte for byte those of the previous frame (another stamp):
   /// a frozen camera or driver. Worker only.
   bool frozen(const Frame& frame);
