@@ -95,7 +95,7 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
   ssm::StereoBagReader reader;
   ASSERT_EQ(reader.open(bag), "");
   ssm::StereoBagFrame frame;
-  int offline_maps = 0, compared = 0, equal = 0;
+  int offline_maps = 0, compared = 0, equal = 0, stationary = 0;
   while (reader.next(&frame)) {
     ASSERT_EQ(frame.error, "") << "pair " << frame.index;
     ssm::StereoFrameResult result;
@@ -103,9 +103,12 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
     const bool ok = processor.processImages(
         frame.left, frame.right, frame.camera, frame.T_fixed_sensor.cast<float>(),
         frame.robot.cast<float>(), frame.stamp.toSec(), &result, &err);
+    // A stationary frame is skipped (000 Sec. IV) but answered with the map at its stamp (which
+    // may have aged): the nodelet republishes the processor's current map.
     if (!ok) {
       EXPECT_EQ(result.mapper.status, ssm::FrameStatus::kStationary) << err;
-      continue;
+      if (result.mapper.status != ssm::FrameStatus::kStationary) continue;
+      ++stationary;
     }
     ++offline_maps;
     ssm::SafetyMapMsg expected;
@@ -172,6 +175,7 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
       grids_checked, hazard_cells, drop_off_cells);
   EXPECT_EQ(duplicates, 0);
   EXPECT_GT(offline_maps, 20);
+  EXPECT_GT(stationary, 0) << "the bag has no stationary frame: the republish is not tested";
   EXPECT_EQ(compared, offline_maps);
   EXPECT_EQ(equal, offline_maps);
   EXPECT_EQ(static_cast<int>(published.size()), offline_maps)
@@ -180,8 +184,10 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
   EXPECT_EQ(last_timings->frames_dropped, 0u);
   EXPECT_EQ(last_timings->frames_rejected, 0u);
   RecordProperty("maps_compared", compared);
-  std::printf("safety_map_replay: %d maps published by the nodelets, %d offline, %d equal\n",
-              static_cast<int>(published.size()), offline_maps, equal);
+  std::printf(
+      "safety_map_replay: %d maps published by the nodelets, %d offline (%d stationary), %d "
+      "equal\n",
+      static_cast<int>(published.size()), offline_maps, stationary, equal);
   run({"rm", "-rf", dir});
 }
 
