@@ -355,9 +355,20 @@ void fuzzImage(FuzzedDataProvider& fdp) {
 
 void fuzzSafetyCost(FuzzedDataProvider& fdp) {
   const auto label = static_cast<SafetyLabel>(fdp.ConsumeIntegral<std::uint8_t>());
-  const std::int8_t cost = safetyCost(label, fdp.ConsumeBool(), specialDouble(fdp, 0.0, 30.0),
-                                      specialDouble(fdp, 0.0, 10.0), specialDouble(fdp, 5.0, 30.0));
+  CostTable table;  // any valid table
+  table.level = fdp.ConsumeIntegralInRange<int>(0, 20);
+  table.inclined_low = fdp.ConsumeIntegralInRange<int>(table.level, 60);
+  table.inclined_high = fdp.ConsumeIntegralInRange<int>(table.inclined_low, 99);
+  table.drop_off = fdp.ConsumeIntegralInRange<int>(1, 100);
+  FUZZ_CHECK(table.validate().empty());
+  const bool drop = fdp.ConsumeBool();
+  const std::int8_t cost = cellCost(table, label, drop, specialDouble(fdp, 0.0, 30.0),
+                                    specialDouble(fdp, 0.0, 10.0), specialDouble(fdp, 5.0, 30.0));
   FUZZ_CHECK(cost >= -1 && cost <= 100);
+  // Nothing hazardous is free: Non-ground lethal, a drop-off edge at its configured cost.
+  if (label == SafetyLabel::kNonGround) FUZZ_CHECK(cost == 100);
+  if (drop && isSafe(label)) FUZZ_CHECK(cost == table.drop_off);
+  if (isSafe(label) && !drop) FUZZ_CHECK(cost <= 99);
 }
 
 }  // namespace

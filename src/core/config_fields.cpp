@@ -429,6 +429,15 @@ ParamFieldList<H> makeHybridFields() {
       .doc(
           "laser Free with no vision information is Safe; false: Unknown, as the laser cannot "
           "see drop-offs (001 Sec. 1).");
+  l.section("Value table of `hybrid_map`");
+  l.add("hazard_cost", &H::hazard_cost)
+      .closed(1, 100)
+      .doc(
+          "value of Hazard cells; 100 = lethal (001 Sec. 2.1: overhangs, drop-offs, steep "
+          "inclines). Below 100 a costmap needs trinary_costmap: false, or hazards read as free.");
+  l.add("caution_cost", &H::caution_cost)
+      .closed(0, 99)
+      .doc("value of Caution cells, below lethal (001 Sec. 2.1: inclines, narrow regions).");
   l.setValidator([](const H& c) { return c.validate(); });
   return l;
 }

@@ -81,15 +81,15 @@ const char* toString(HybridLabel label) {
   return "invalid";
 }
 
-std::int8_t toOccupancyValue(HybridLabel label) {
+std::int8_t toOccupancyValue(HybridLabel label, const HybridSafetyMapConfig& config) {
   // The one translation table to nav_msgs/OccupancyGrid (-1 unknown, 0..100 cost).
   switch (label) {
     case HybridLabel::kSafe:
       return 0;
     case HybridLabel::kCaution:
-      return 50;
+      return static_cast<std::int8_t>(config.caution_cost);
     case HybridLabel::kHazard:
-      return 99;
+      return static_cast<std::int8_t>(config.hazard_cost);
     case HybridLabel::kObstacle:
       return 100;
     case HybridLabel::kUnknown:
@@ -103,6 +103,13 @@ std::string HybridSafetyMapConfig::validate() const {
     std::ostringstream s;
     s << "min_passage_width = " << min_passage_width << " is out of range (0, 100] m";
     return s.str();
+  }
+  if (hazard_cost < 1 || hazard_cost > 100) {
+    return "hazard_cost = " + std::to_string(hazard_cost) + " is out of range [1, 100]";
+  }
+  if (caution_cost < 0 || caution_cost > 99) {
+    return "caution_cost = " + std::to_string(caution_cost) +
+           " is out of range [0, 99] (below lethal: Caution is drivable)";
   }
   return {};
 }

@@ -46,21 +46,6 @@ std::string checkCameraInfo(const sensor_msgs::CameraInfo& info, const char* whi
   return "";
 }
 
-std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
-                       double max_slope_deg) {
-  const auto index = static_cast<std::size_t>(label);
-  if (index >= sizeof(kLabelCostTable) / sizeof(kLabelCostTable[0])) return -1;
-  if (drop_off && isSafe(label)) return kDropOffCost;
-  const LabelCost& row = kLabelCostTable[index];
-  if (row.cost == row.cost_max) return row.cost;
-  // Inclined: linear in the slope between theta_T and theta_max.
-  double t = 0.0;
-  if (std::isfinite(slope_deg) && max_slope_deg > level_slope_deg) {
-    t = std::clamp((slope_deg - level_slope_deg) / (max_slope_deg - level_slope_deg), 0.0, 1.0);
-  }
-  return static_cast<std::int8_t>(std::lround(row.cost + t * (row.cost_max - row.cost)));
-}
-
 std::string cameraModelFromCameraInfo(const sensor_msgs::CameraInfo& left,
                                       const sensor_msgs::CameraInfo& right,
                                       StereoCameraModel* model) {
@@ -421,20 +406,11 @@ nav_msgs::MapMetaData mapMetaData(const SafetyMap& map, const ros::Time& load_ti
 }
 
 void toOccupancyGrid(const SafetyMap& map, const SafetyLabellingConfig& labelling,
-                     const std_msgs::Header& header, nav_msgs::OccupancyGrid* out) {
+                     const CostTable& costs, const std_msgs::Header& header,
+                     nav_msgs::OccupancyGrid* out) {
   out->header = header;
   out->info = mapMetaData(map, header.stamp);
-  const std::size_t n = map.labels.size();
-  out->data.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int s = i < map.segment.size() ? map.segment[i] : -1;
-    const double slope = (s >= 0 && s < static_cast<int>(map.segments.size()))
-                             ? map.segments[s].plane.slope_deg
-                             : 0.0;
-    const bool drop = i < map.drop_off.size() && map.drop_off[i] != 0;
-    out->data[i] =
-        safetyCost(map.labels[i], drop, slope, labelling.level_slope_deg, labelling.max_slope_deg);
-  }
+  safetyMapCosts(map, costs, labelling.level_slope_deg, labelling.max_slope_deg, &out->data);
 }
 
 void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,

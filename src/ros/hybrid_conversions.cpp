@@ -121,8 +121,8 @@ std::string laserScanInfoFromMsg(const sensor_msgs::LaserScan& msg, LaserScanInf
   return "";
 }
 
-void toHybridOccupancyGrid(const HybridSafetyMap& map, const std_msgs::Header& header,
-                           nav_msgs::OccupancyGrid* out) {
+void toHybridOccupancyGrid(const HybridSafetyMap& map, const HybridSafetyMapConfig& config,
+                           const std_msgs::Header& header, nav_msgs::OccupancyGrid* out) {
   out->header = header;
   nav_msgs::MapMetaData& info = out->info;
   info.map_load_time = header.stamp;
@@ -136,7 +136,7 @@ void toHybridOccupancyGrid(const HybridSafetyMap& map, const std_msgs::Header& h
   info.origin.orientation.w = 1.0;
   out->data.resize(map.labels.size());
   for (std::size_t i = 0; i < map.labels.size(); ++i) {
-    out->data[i] = toOccupancyValue(map.labels[i]);
+    out->data[i] = toOccupancyValue(map.labels[i], config);
   }
 }
 
@@ -145,8 +145,8 @@ void toHybridSafetyMapMsg(const HybridSafetyMap& map, const SafetyMap& vision, b
                           HybridSafetyMapMsg* out) {
   nav_msgs::OccupancyGrid grid;  // for its MapMetaData only
   toHybridOccupancyGrid(
-      HybridSafetyMap{map.min_u, map.min_v, map.width, map.height, map.resolution, {}}, header,
-      &grid);
+      HybridSafetyMap{map.min_u, map.min_v, map.width, map.height, map.resolution, {}},
+      HybridSafetyMapConfig(), header, &grid);
   out->header = header;
   out->info = grid.info;
   const std::size_t n = map.labels.size();

@@ -216,7 +216,7 @@ void HybridSafetyMapRos::publish(const ros::Time& stamp, bool use_vision) {
   header.stamp = stamp;
   header.frame_id = ros_config_.fixed_frame;
   auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
-  toHybridOccupancyGrid(hybrid_, header, grid.get());
+  toHybridOccupancyGrid(hybrid_, hybrid_config_, header, grid.get());
   auto labels = boost::make_shared<HybridSafetyMapMsg>();
   toHybridSafetyMapMsg(hybrid_, vision, use_vision,
                        use_vision ? (stamp - vision_stamp_).toSec() : 0.0, *laser_, header,

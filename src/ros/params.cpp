@@ -34,15 +34,22 @@ std::string SafetyMapRosConfig::validate() const {
     os << "disparity_step = " << disparity_step << ", must be in [1, 16]";
   } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
     os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
+  } else if (save_directory.empty() || save_directory.front() != '/') {
+    os << "save_directory = '" << save_directory
+       << "', must be an absolute path such as /tmp/stereo_safety_map";
   } else if (save_prefix.empty()) {
-    os << "save_prefix is empty, must be a path prefix such as /tmp/safety_map";
+    os << "save_prefix is empty, must be a path prefix such as map (under save_directory)";
   } else if (!std::isfinite(max_tf_wait) || max_tf_wait <= 0.0 || max_tf_wait > 3600.0) {
     os << "max_tf_wait = " << max_tf_wait << ", must be in (0, 3600] s";
   } else if (!std::isfinite(stale_input_timeout) || stale_input_timeout <= 0.0 ||
              stale_input_timeout > 3600.0) {
     os << "stale_input_timeout = " << stale_input_timeout << ", must be in (0, 3600] s";
+  } else if (!std::isfinite(obstacles_cloud_height) || obstacles_cloud_height < -10.0 ||
+             obstacles_cloud_height > 10.0) {
+    os << "obstacles_cloud_height = " << obstacles_cloud_height << ", must be in [-10, 10] m";
   }
-  return os.str();
+  const std::string s = os.str();
+  return s.empty() ? costs.validate() : s;
 }
 
 const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
@@ -103,11 +110,47 @@ const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
     l.add("stale_input_timeout", &R::stale_input_timeout)
         .openClosed(0, 3600)
         .unit("s")
-        .doc("WARN in /diagnostics after this long without input or without a usable frame.");
+        .doc(
+            "WARN in /diagnostics after this long without input or without a usable frame; after "
+            "this long (ROS clock) without a frame integrated, the published `safety_map` turns "
+            "all Unknown (-1), still at the last frame's stamp, and `safety_obstacles` stops.");
+    l.add("save_directory", &R::save_directory)
+        .rangeText("absolute path")
+        .doc(
+            "`~save` writes only under this directory (created when missing); a prefix that "
+            "leaves it (an absolute path elsewhere, `..`, a symlink out) is refused.");
     l.add("save_prefix", &R::save_prefix)
         .rangeText("non-empty")
-        .doc("default prefix of `~save` (<prefix>.bt, .pgm, .yaml and _labels.png).");
+        .doc(
+            "default prefix of `~save` (<prefix>.bt, .pgm, .yaml and _labels.png), relative to "
+            "save_directory.");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.section("Cost table of `safety_map` (core/map_costs.h; Non-ground 100, Unknown -1 fixed)");
+    l.add("cost_level", &R::costs, &CostTable::level)
+        .closed(0, 99)
+        .doc("value of Level cells (000 Sec. I-A: safe).");
+    l.add("cost_inclined_low", &R::costs, &CostTable::inclined_low)
+        .closed(0, 99)
+        .rangeText("[cost_level, 99]")
+        .doc(
+            "value of Inclined cells at theta_T, rising linearly with the slope (000 Alg. 2 step "
+            "28).");
+    l.add("cost_inclined_high", &R::costs, &CostTable::inclined_high)
+        .closed(0, 99)
+        .rangeText("[cost_inclined_low, 99]")
+        .doc("value of Inclined cells at theta_max; graded Inclined stays below lethal.");
+    l.add("cost_drop_off", &R::costs, &CostTable::drop_off)
+        .closed(1, 100)
+        .doc(
+            "value of potential drop-off edges (000 Sec. VI: a drop-off is expected nearby); 100 = "
+            "lethal. Below 100 a costmap needs trinary_costmap: false, or the edge reads as free.");
+    l.add("obstacles_cloud_height", &R::obstacles_cloud_height)
+        .closed(-10, 10)
+        .unit("m")
+        .doc(
+            "height of the `safety_obstacles` points above the robot's base (within the obstacle "
+            "layer's min / max_obstacle_height) (ours).");
+
     l.setValidator([](const R& c) { return c.validate(); });
     return l;
   }();

@@ -1,5 +1,6 @@
 #include "stereo_safety_map/ros/safety_map_ros.h"
 
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
@@ -32,7 +33,7 @@ namespace {
 // Frames between their check and the worker are at most queue_size in the tf filter and
 // queue_size in the matcher; more entries are leftovers (e.g. a repeated stamp).
 constexpr std::size_t kMaxArrivals = 256;
-constexpr double kAgePeriod = 1.0;  // [s] between two agings of the map by the clock
+constexpr double kAgePeriod = 0.25;  // [s] between two agings / staleness checks of the map
 
 // A file of ~save: its final path, the temporary one it is written to first, its bytes.
 struct SaveFile {
@@ -146,6 +147,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("planes", 1);
   points_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("occupied_points", 1);
   timings_pub_ = nh_.advertise<StageTimingsMsg>("stage_timings", 10);
+  obstacles_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("safety_obstacles", 1);
   if (landmark_config_.enabled) {
     landmarks_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("landmarks", 1);
     if (ros_config_.input == "cloud") {
@@ -590,7 +592,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
       // 000 Sec. IV skips the frame, but the camera saw what the map holds: the map is vouched
       // for at this stamp (and may have aged). Consumers that check its age (the safety gate)
       // keep working while the chair stands still.
-      publishMap(header);
+      publishMap(header, true);
     }
     {
       std::lock_guard<std::mutex> cue_lock(cue_mutex_);
@@ -664,33 +666,81 @@ void SafetyMapRos::ageTimerCb() {
   if (!processor_ || now.isZero()) return;  // sim time without a clock yet: no time passes
   std::lock_guard<std::mutex> lock(core_mutex_);
   SafetyMapper& mapper = processor_->mapper();
-  if (mapper.safetyMap().width <= 0) return;
-  // Frames age the map at their stamps; this ages it while they do not come.
-  if (mapper.ageSafetyMap(now.toSec()) == 0) return;
+  if (mapper.safetyMap().width <= 0 || map_stamp_.isZero()) return;
   std_msgs::Header header;
-  header.stamp = now;
+  header.stamp = map_stamp_;  // the map's age stays visible: never `now`
   header.frame_id = ros_config_.fixed_frame;
-  publishMap(header);
+  // No frame integrated for stale_input_timeout (ROS clock, the consumers' clock): the published
+  // grid says so. A clock that went back (a bag restarted) is not staleness.
+  const double silent = (now - map_vouched_at_).toSec();
+  if (!map_stale_ && now >= map_vouched_at_ && silent > ros_config_.stale_input_timeout) {
+    map_stale_ = true;
+    ++stale_maps_;
+    problems_.note("no frame integrated for stale_input_timeout: safety_map published all Unknown");
+    ROS_WARN_STREAM(name_ << ": no frame integrated for " << silent << " s (stale_input_timeout "
+                          << ros_config_.stale_input_timeout
+                          << " s): publishing safety_map as all Unknown at the last frame's stamp "
+                          << map_stamp_);
+    // The grid only, unless aging changed the map: the labels keep their content and stamp (their
+    // consumers, the gate and the hybrid map, check its age themselves).
+    if (mapper.ageSafetyMap(now.toSec()) > 0) {
+      publishMap(header, false);
+    } else {
+      publishGrid(header);
+    }
+  } else if (mapper.ageSafetyMap(now.toSec()) > 0) {
+    // Frames age the map at their stamps; this ages it while they do not come.
+    publishMap(header, false);
+  } else {
+    return;
+  }
   std::lock_guard<std::mutex> stats_lock(stats_mutex_);
   cells_aged_ = mapper.cellsAged();
 }
 
-void SafetyMapRos::publishMap(const std_msgs::Header& header) {
+void SafetyMapRos::publishMap(const std_msgs::Header& header, bool from_frame) {
   const SafetyMapper& mapper = processor_->mapper();
   const SafetyMap& map = mapper.safetyMap();
-  auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
-  toOccupancyGrid(map, mapper.config().labelling, header, grid.get());
-  map_pub_.publish(grid);
-
+  map_stamp_ = header.stamp;
+  if (from_frame) {
+    map_vouched_at_ = ros::Time::now();
+    if (map_stale_) {
+      ROS_INFO_STREAM(name_ << ": frames are integrated again; safety_map is live");
+    }
+    map_stale_ = false;
+  }
+  publishGrid(header);
   auto labels = boost::make_shared<SafetyMapMsg>();
   toSafetyMapMsg(map, robot_position_, header, labels.get());
   labels_pub_.publish(labels);
 }
 
+void SafetyMapRos::publishGrid(const std_msgs::Header& header) {
+  const SafetyMapper& mapper = processor_->mapper();
+  const SafetyMap& map = mapper.safetyMap();
+  auto grid = boost::make_shared<nav_msgs::OccupancyGrid>();
+  toOccupancyGrid(map, mapper.config().labelling, ros_config_.costs, header, grid.get());
+  if (map_stale_) {
+    // A documented equivalent of "no information": every cell Unknown (-1), the stamp the last
+    // frame's. costmap_2d's static layer reads the grid without looking at its stamp.
+    std::fill(grid->data.begin(), grid->data.end(), static_cast<std::int8_t>(CostTable::kUnknown));
+  } else if (obstacles_pub_.getNumSubscribers() > 0) {
+    // The lethal cells, for a costmap's obstacle layer (marking, and clearing by ray tracing from
+    // its sensor_frame): at the robot's base height + obstacles_cloud_height.
+    lethalCellPoints(map, grid->data,
+                     robot_position_.z() + static_cast<float>(ros_config_.obstacles_cloud_height),
+                     &obstacle_points_);
+    auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
+    pointsToCloud(obstacle_points_, header, cloud.get());
+    obstacles_pub_.publish(cloud);
+  }
+  map_pub_.publish(grid);
+}
+
 void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
                                   const Eigen::Vector3f& robot_position) {
   robot_position_ = robot_position;
-  publishMap(header);
+  publishMap(header, true);
 
   if (markers_pub_.getNumSubscribers() > 0) {
     auto markers = boost::make_shared<visualization_msgs::MarkerArray>();
@@ -719,6 +769,8 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
   if (!processor_) return false;
   std::lock_guard<std::mutex> lock(core_mutex_);
   processor_->reset();
+  map_stamp_ = ros::Time();
+  map_stale_ = false;
   {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
@@ -734,13 +786,23 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
     res.message = "not running: " + config_error_;
     return true;
   }
-  const std::string prefix = req.path_prefix.empty() ? ros_config_.save_prefix : req.path_prefix;
-  const std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
+  // Only under save_directory: a prefix that leaves it (absolute elsewhere, "..", a symlink out)
+  // is refused. Checked again once the directories exist, so that a symlink made in between is
+  // seen.
+  const std::string requested = req.path_prefix.empty() ? ros_config_.save_prefix : req.path_prefix;
+  std::string prefix;
+  std::string err = resolveSavePrefix(ros_config_.save_directory, requested, &prefix);
   std::error_code ec;
-  if (!parent.empty()) std::filesystem::create_directories(parent, ec);
-  if (ec) {
+  if (err.empty()) {
+    const std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
+    std::filesystem::create_directories(parent, ec);
+    if (ec) err = "cannot create " + parent.string() + ": " + ec.message();
+  }
+  if (err.empty()) err = resolveSavePrefix(ros_config_.save_directory, requested, &prefix);
+  if (!err.empty()) {
     res.success = false;
-    res.message = "cannot create " + parent.string() + ": " + ec.message();
+    res.message = err;
+    problems_.report("save refused", "~save: " + err);
     return true;
   }
 
@@ -787,14 +849,17 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
     files.push_back({prefix + ".bt", "", os.str()});
   }
 
-  // The safety map for map_server (trinary): Level / Inclined free (254), Non-ground and
-  // potential drop-off edges occupied (0), Unknown / Unexamined unknown (205). Row 0 of the
-  // image is the map's top (largest y). Plus a colour picture with 000 Fig. 4(a)'s colours.
+  // The safety map for map_server in `mode: raw`: each pixel is the live OccupancyGrid's value
+  // (the same cost table, core/map_costs.h; 255 = -1 unknown), so map_server serves exactly the
+  // map that was published. Row 0 of the image is the map's top (largest y). Plus a colour
+  // picture with 000 Fig. 4(a)'s colours.
   {
-    std::ostringstream pgm;
-    pgm << "P5\n# stereo_safety_map safety map\n" << map.width << " " << map.height << "\n255\n";
+    std::vector<std::int8_t> costs;
+    const SafetyLabellingConfig& labelling = processor_->mapper().config().labelling;
+    safetyMapCosts(map, ros_config_.costs, labelling.level_slope_deg, labelling.max_slope_deg,
+                   &costs);
+    files.push_back({prefix + ".pgm", "", costsToRawPgm(costs, map.width, map.height)});
     cv::Mat colour(map.height, map.width, CV_8UC3);
-    std::string pixels(static_cast<std::size_t>(map.width) * map.height, '\0');
     for (int r = 0; r < map.height; ++r) {
       const int v = map.min_v + map.height - 1 - r;
       for (int c = 0; c < map.width; ++c) {
@@ -802,39 +867,31 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
         const int k = map.index(u, v);
         const SafetyLabel label = map.labels[k];
         const bool drop = map.drop_off[k] != 0;
-        unsigned char g = 205;
         cv::Vec3b bgr(80, 80, 80);  // Unexamined: dark grey
         if (drop && isSafe(label)) {
-          g = 0;
           bgr = cv::Vec3b(255, 0, 0);  // blue
         } else if (label == SafetyLabel::kLevel) {
-          g = 254;
           bgr = cv::Vec3b(255, 255, 255);
         } else if (label == SafetyLabel::kInclined) {
-          g = 254;
           bgr = cv::Vec3b(0, 255, 255);  // yellow
         } else if (label == SafetyLabel::kNonGround) {
-          g = 0;
           bgr = cv::Vec3b(0, 0, 0);
         } else if (label == SafetyLabel::kUnknown) {
           bgr = cv::Vec3b(200, 200, 200);
         }
-        pixels[static_cast<std::size_t>(r) * map.width + c] = static_cast<char>(g);
         colour.at<cv::Vec3b>(r, c) = bgr;
       }
     }
-    pgm << pixels;
-    files.push_back({prefix + ".pgm", "", pgm.str()});
 
     const nav_msgs::MapMetaData info = mapMetaData(map, ros::Time());
     std::ostringstream yaml;
     yaml << "# Safety map of stereo_safety_map (paper 000 Sec. VI) in map_server's format.\n"
-         << "# Free: Level and Inclined; occupied: Non-ground and potential drop-off edges;\n"
-         << "# unknown: Unknown and Unexamined. Frame: " << ros_config_.fixed_frame << ".\n"
+         << "# mode: raw: every pixel is the published OccupancyGrid's value (cost table of the\n"
+         << "# README; 255 = -1 unknown). Frame: " << ros_config_.fixed_frame << ".\n"
          << "image: " << std::filesystem::path(prefix).filename().string() << ".pgm\n"
          << "resolution: " << info.resolution << "\n"
          << "origin: [" << info.origin.position.x << ", " << info.origin.position.y << ", 0.0]\n"
-         << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n";
+         << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: raw\n";
     files.push_back({prefix + ".yaml", "", yaml.str()});
 
     std::vector<unsigned char> png;
@@ -846,7 +903,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
   lock.unlock();
 
   std::lock_guard<std::mutex> save_lock(save_mutex_);
-  const std::string err = writeFilesAtomically(&files);
+  err = writeFilesAtomically(&files);
   if (!err.empty()) {
     res.success = false;
     res.message = err;
@@ -939,6 +996,10 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   stat.add("map resets", map_resets_);
   stat.addf("max cell age [s]", "%.1f", max_cell_age_.load());
   stat.add("cells aged to Unknown (current map)", cells_aged_);
+  stat.add("published safety_map", map_stale_ ? "stale: all Unknown (no frame integrated for "
+                                                "stale_input_timeout)"
+                                              : "live");
+  stat.add("times the map went stale", stale_maps_.load());
   const double since_input = last_arrival_.isZero() ? -1.0 : (now - last_arrival_).toSec();
   const double since_used = (now - (last_used_.isZero() ? started_ : last_used_)).toSec();
   stat.addf("last input [s ago]", "%.1f", since_input);

@@ -349,17 +349,30 @@ TEST(HybridSafetyMap, ConfusionCountsFollowTheTeamConventions) {
 }
 
 TEST(HybridSafetyMap, LabelTablesAndConfigValidation) {
-  EXPECT_EQ(toOccupancyValue(HybridLabel::kUnknown), -1);
-  EXPECT_EQ(toOccupancyValue(HybridLabel::kSafe), 0);
-  EXPECT_EQ(toOccupancyValue(HybridLabel::kCaution), 50);
-  EXPECT_EQ(toOccupancyValue(HybridLabel::kHazard), 99);
-  EXPECT_EQ(toOccupancyValue(HybridLabel::kObstacle), 100);
+  const HybridSafetyMapConfig d;
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kUnknown, d), -1);
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kSafe, d), 0);
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kCaution, d), 50);
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kHazard, d), 100);  // lethal by default
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kObstacle, d), 100);
+  HybridSafetyMapConfig c;
+  c.hazard_cost = 99;
+  c.caution_cost = 30;
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kHazard, c), 99);
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kCaution, c), 30);
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kObstacle, c), 100);
+  c.hazard_cost = 0;  // a hazard free: refused
+  EXPECT_NE(c.validate().find("hazard_cost"), std::string::npos);
+  c = HybridSafetyMapConfig();
+  c.caution_cost = 100;
+  EXPECT_NE(c.validate().find("caution_cost"), std::string::npos);
   EXPECT_STREQ(toString(HybridLabel::kHazard), "hazard");
   EXPECT_TRUE(isTraversable(HybridLabel::kCaution));
   EXPECT_FALSE(isTraversable(HybridLabel::kUnknown));
 
   EXPECT_TRUE(HybridSafetyMapConfig().validate().empty());
-  HybridSafetyMapConfig c;
+  c = HybridSafetyMapConfig();
   c.min_passage_width = 0.0;
   EXPECT_NE(c.validate().find("min_passage_width"), std::string::npos);
   EXPECT_THROW(HybridSafetyMapBuilder{c}, std::invalid_argument);

@@ -231,7 +231,7 @@ TEST_F(HybridTest, OccupancyGridFollowsTheValueTable) {
   ASSERT_TRUE(waitFor([] { return grid_->get() != nullptr; }, 5.0));
   const nav_msgs::OccupancyGrid& g = *grid_->get();
   EXPECT_EQ(test_util::costAt(g, kWallX, -1.5), 100);  // Obstacle
-  EXPECT_EQ(test_util::costAt(g, 2.4, 0.0), 99);       // Hazard
+  EXPECT_EQ(test_util::costAt(g, 2.4, 0.0), 100);      // Hazard: lethal by default
   EXPECT_EQ(test_util::costAt(g, 1.15, 1.15), 50);     // Caution
   EXPECT_EQ(test_util::costAt(g, 1.0, -1.0), 0);       // Safe
   EXPECT_EQ(test_util::costAt(g, 1.15, -1.85), -1);    // Unknown

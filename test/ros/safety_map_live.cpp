@@ -12,6 +12,7 @@
 #include "test_util.h"
 
 #include "stereo_safety_map/SaveMap.h"
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/ros/msgs.h"
 
 #include <gtest/gtest.h>
@@ -88,8 +89,10 @@ class TornMapChecker {
       }
     }
   }
-  // Labels and costs of one stamp: the cost table of conversions.h, cell by cell. (The aging
-  // timer and a reconfiguration can republish one stamp; only whole pairs are compared.)
+  // Labels and costs of one stamp: the default cost table (core/map_costs.h), cell by cell, and
+  // what costmap_2d's static layer reads (trinary_costmap true, lethal_cost_threshold 100,
+  // unknown_cost_value -1): no drop-off edge or Non-ground cell free. (The aging timer can
+  // republish one stamp; only whole pairs are compared.)
   void match(const ros::Time& t) {
     const auto l = labels_.find(t);
     const auto g = grids_.find(t);
@@ -109,10 +112,10 @@ class TornMapChecker {
         bool ok = false;
         switch (m.labels[k]) {
           case SafetyMapMsg::LEVEL:
-            ok = c == (drop ? 90 : 0);
+            ok = c == (drop ? 100 : 0);
             break;
           case SafetyMapMsg::INCLINED:
-            ok = drop ? c == 90 : (c >= 10 && c <= 50);
+            ok = drop ? c == 100 : (c >= 10 && c <= 50);
             break;
           case SafetyMapMsg::NON_GROUND:
             ok = c == 100;
@@ -120,6 +123,14 @@ class TornMapChecker {
           default:
             ok = c == -1;
             break;
+        }
+        const bool hazard =
+            m.labels[k] == SafetyMapMsg::NON_GROUND ||
+            (drop && (m.labels[k] == SafetyMapMsg::LEVEL || m.labels[k] == SafetyMapMsg::INCLINED));
+        if (hazard && stereo_safety_map::staticLayerCost(
+                          static_cast<std::int8_t>(c), stereo_safety_map::StaticLayerSettings()) ==
+                          stereo_safety_map::kCostmapFreeSpace) {
+          ok = false;
         }
         if (!ok) {
           fail("cell " + std::to_string(k) + ": label " + std::to_string(m.labels[k]) +
@@ -174,7 +185,8 @@ std::string checkPgm(const std::string& bytes, int* width = nullptr, int* height
 class LiveTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = fs::temp_directory_path() / ("ssm_live_" + std::to_string(::getpid()));
+    // Under the nodelet's save_directory (safety_map_live.test).
+    dir_ = fs::path("/tmp/ssm_live_test") / std::to_string(::getpid());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }

@@ -4,6 +4,7 @@
 // and the open-world evaluation run). The test node renders the bag (make_dataset --small), plays
 // it with `rosbag play --clock`, records every safety_map_labels message, then maps the bag
 // offline and compares.
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/dataset_reader.h"
@@ -62,6 +63,15 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
       "safety_map_labels", 1000, [&](const ssm::SafetyMapMsg::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(mutex);
         if (!published.emplace(m->header.stamp.toSec(), m).second) ++duplicates;
+      });
+  // The published OccupancyGrids, as costmap_2d's static layer reads them (the README's costmap
+  // section: trinary_costmap true, lethal_cost_threshold 100, unknown_cost_value -1,
+  // track_unknown_space true): checked against the labels of their stamp after the run.
+  std::map<double, nav_msgs::OccupancyGrid::ConstPtr> grids;  // by stamp, the last one
+  ros::Subscriber grid_sub = nh.subscribe<nav_msgs::OccupancyGrid>(
+      "safety_map", 1000, [&](const nav_msgs::OccupancyGrid::ConstPtr& g) {
+        std::lock_guard<std::mutex> lock(mutex);
+        grids[g->header.stamp.toSec()] = g;
       });
   ros::Subscriber timings_sub;
   ssm::StageTimingsMsg::ConstPtr last_timings;
@@ -132,6 +142,37 @@ TEST(SafetyMapReplay, EveryPublishedMapEqualsTheOfflineMapCellByCell) {
                   << differ << " labels of " << expected.labels.size() << ")";
   }
   std::lock_guard<std::mutex> lock(mutex);
+  // No drop-off edge or Non-ground cell reads as free to the static layer; every grid is stamped
+  // with a frame's stamp (a frame that made a labels message).
+  std::size_t hazard_cells = 0, drop_off_cells = 0, grids_checked = 0;
+  for (const auto& [stamp, grid] : grids) {
+    const auto it = published.find(stamp);
+    if (it == published.end()) {
+      ADD_FAILURE() << "a grid stamped " << stamp << " that no frame's labels have";
+      continue;
+    }
+    const ssm::SafetyMapMsg& m = *it->second;
+    ASSERT_EQ(grid->data.size(), m.labels.size());
+    ++grids_checked;
+    for (std::size_t k = 0; k < m.labels.size(); ++k) {
+      const bool safe =
+          m.labels[k] == ssm::SafetyMapMsg::LEVEL || m.labels[k] == ssm::SafetyMapMsg::INCLINED;
+      const bool drop = safe && m.drop_off[k] != 0;
+      if (m.labels[k] != ssm::SafetyMapMsg::NON_GROUND && !drop) continue;
+      ++hazard_cells;
+      drop_off_cells += drop;
+      EXPECT_NE(ssm::staticLayerCost(grid->data[k], ssm::StaticLayerSettings()),
+                ssm::kCostmapFreeSpace)
+          << "stamp " << stamp << " cell " << k << ": label " << int(m.labels[k]) << " drop-off "
+          << drop << " reads as free (value " << int(grid->data[k]) << ")";
+    }
+  }
+  EXPECT_EQ(grids_checked, published.size());
+  EXPECT_GT(hazard_cells, 1000u);
+  std::printf(
+      "safety_map_replay: %zu grids read as the static layer does: %zu hazardous cells "
+      "(%zu drop-off edges), none free\n",
+      grids_checked, hazard_cells, drop_off_cells);
   EXPECT_EQ(duplicates, 0);
   EXPECT_GT(offline_maps, 20);
   EXPECT_GT(stationary, 0) << "the bag has no stationary frame: the republish is not tested";

@@ -1,8 +1,10 @@
 // The safety-map nodelet on a known scene: a level floor with a box in front of the robot.
 // Checks labels and costs from both inputs (disparity and cloud), the markers, the occupied
-// points, the timings, ~save and ~reset.
+// points, the lethal cells of safety_obstacles, the timings, the map's stamp and its staleness,
+// ~save (under save_directory only, its PGM equal to the live grid) and ~reset.
 #include "test_util.h"
 
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/msgs.h"
 
@@ -10,6 +12,9 @@
 #include <std_srvs/Empty.h>
 #include <visualization_msgs/MarkerArray.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -84,11 +89,14 @@ TEST_F(SceneTest, DisparityInputLabelsFloorAndBox) {
   Latest<visualization_msgs::MarkerArray> markers(*nh_, "/disp/planes");
   Latest<sensor_msgs::PointCloud2> points(*nh_, "/disp/occupied_points");
   Latest<StageTimingsMsg> timings(*nh_, "/disp/stage_timings");
+  Latest<sensor_msgs::PointCloud2> obstacles(*nh_, "/disp/safety_obstacles");
   ASSERT_TRUE(pub.waitForSubscribers(20.0)) << "the disparity nodelet did not subscribe";
   test_util::sleepFor(0.5);  // let our subscribers connect too
 
+  ros::Time last_stamp;
   for (int i = 0; i < kFrames; ++i) {
-    pub.publishDisparity(ros::Time::now());
+    last_stamp = ros::Time::now();
+    pub.publishDisparity(last_stamp);
     test_util::sleepFor(0.15);
   }
   ASSERT_TRUE(waitFor(
@@ -104,6 +112,35 @@ TEST_F(SceneTest, DisparityInputLabelsFloorAndBox) {
   expectSceneCosts(*grid.get(), "disparity input");
   ASSERT_TRUE(labels.get());
   expectSceneLabels(*labels.get());
+  // The map's stamp is the last frame's (its age is visible to a consumer).
+  EXPECT_TRUE(waitFor(
+      [&] {
+        return grid.get()->header.stamp == last_stamp && obstacles.get() &&
+               obstacles.get()->header.stamp == last_stamp;
+      },
+      10.0));
+  EXPECT_EQ(grid.get()->header.stamp, last_stamp);
+  EXPECT_EQ(labels.get()->header.stamp, last_stamp);
+
+  // safety_obstacles: one point per lethal cell, at its centre, robot base (z 0) + 0.1 m.
+  ASSERT_TRUE(obstacles.get());
+  const auto& obs = *obstacles.get();
+  EXPECT_EQ(obs.header.frame_id, "odom");
+  EXPECT_EQ(obs.header.stamp, last_stamp);
+  std::size_t lethal = 0;
+  for (std::int8_t v : grid.get()->data)
+    lethal += v >= 100;
+  EXPECT_GT(lethal, 10u);
+  EXPECT_EQ(static_cast<std::size_t>(obs.width) * obs.height, lethal);
+  bool box_point = false;
+  sensor_msgs::PointCloud2ConstIterator<float> ox(obs, "x"), oy(obs, "y"), oz(obs, "z");
+  for (std::size_t i = 0; i < static_cast<std::size_t>(obs.width) * obs.height;
+       ++i, ++ox, ++oy, ++oz) {
+    EXPECT_EQ(costAt(*grid.get(), *ox, *oy), 100) << *ox << ", " << *oy;
+    EXPECT_NEAR(*oz, 0.1f, 1e-5);
+    box_point = box_point || (std::abs(*ox - 2.3f) < 0.06f && std::abs(*oy) < 0.06f);
+  }
+  EXPECT_TRUE(box_point) << "no obstacle point on the box";
 
   // Timings: every stage ran.
   const auto t = timings.get();
@@ -159,8 +196,19 @@ TEST_F(SceneTest, CloudInputLabelsFloorAndBox) {
 }
 
 TEST_F(SceneTest, SaveWritesOctomapAndMapServerFiles) {
-  // Runs after DisparityInput... (gtest keeps the order within a file): the map exists.
-  const std::string dir = "/tmp/ssm_scene_test_" + std::to_string(::getpid());
+  // Runs after DisparityInput... (gtest keeps the order within a file): the map exists. A few
+  // more frames keep it live (not stale), then it does not change: the saved PGM must be the
+  // published grid, value for value (map_server's raw mode).
+  test_util::ScenePublisher pub(*nh_, "/disp");
+  Latest<nav_msgs::OccupancyGrid> grid(*nh_, "/disp/safety_map");
+  ASSERT_TRUE(pub.waitForSubscribers(10.0));
+  for (int i = 0; i < 3; ++i) {
+    pub.publishDisparity(ros::Time::now());
+    test_util::sleepFor(0.15);
+  }
+  test_util::sleepFor(0.5);
+  // save_directory is /tmp/ssm_scene_test (safety_map_scene.test).
+  const std::string dir = "/tmp/ssm_scene_test/" + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   stereo_safety_map::SaveMap srv;
   srv.request.path_prefix = dir + "/sub/map";
@@ -180,11 +228,87 @@ TEST_F(SceneTest, SaveWritesOctomapAndMapServerFiles) {
   ss << yaml.rdbuf();
   EXPECT_NE(ss.str().find("image: map.pgm"), std::string::npos) << ss.str();
   EXPECT_NE(ss.str().find("resolution: 0.1"), std::string::npos) << ss.str();
+  EXPECT_NE(ss.str().find("mode: raw"), std::string::npos) << ss.str();
   std::ifstream bt(dir + "/sub/map.bt");
   std::string first_line;
   std::getline(bt, first_line);
   EXPECT_NE(first_line.find("# Octomap OcTree binary file"), std::string::npos) << first_line;
+
+  // The saved PGM and the live map agree.
+  ASSERT_TRUE(grid.get());
+  std::ifstream pgm_file(dir + "/sub/map.pgm", std::ios::binary);
+  std::stringstream pgm;
+  pgm << pgm_file.rdbuf();
+  std::vector<std::int8_t> saved;
+  int w = 0, h = 0;
+  ASSERT_EQ(stereo_safety_map::rawPgmToCosts(pgm.str(), &saved, &w, &h), "");
+  EXPECT_EQ(w, static_cast<int>(grid.get()->info.width));
+  EXPECT_EQ(h, static_cast<int>(grid.get()->info.height));
+  EXPECT_TRUE(saved == grid.get()->data) << "the saved PGM differs from the published grid";
+  EXPECT_NE(std::count(saved.begin(), saved.end(), 100), 0);
+
+  // A relative prefix is under save_directory.
+  srv = stereo_safety_map::SaveMap();
+  srv.request.path_prefix = std::to_string(::getpid()) + "/rel/map";
+  ASSERT_TRUE(ros::service::call("/disp/safety_map/save", srv));
+  EXPECT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/rel/map.pgm"));
+
+  // Leaving save_directory is refused with a message, and nothing is written.
+  const std::string outside = "/tmp/ssm_scene_test_outside_" + std::to_string(::getpid());
+  std::filesystem::remove_all(outside);
+  std::filesystem::create_directories(outside);
+  std::filesystem::create_directory_symlink(outside, dir + "/link_out");
+  for (const std::string& p :
+       {outside + "/map", dir + "/../../etc_map", std::string("../x/map"), dir + "/link_out/map"}) {
+    srv = stereo_safety_map::SaveMap();
+    srv.request.path_prefix = p;
+    ASSERT_TRUE(ros::service::call("/disp/safety_map/save", srv));
+    EXPECT_FALSE(srv.response.success) << p;
+    EXPECT_NE(srv.response.message.find("outside save_directory"), std::string::npos)
+        << p << ": " << srv.response.message;
+    EXPECT_TRUE(srv.response.files.empty());
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(outside));
+  EXPECT_FALSE(std::filesystem::exists("/tmp/x/map.pgm"));
+  std::filesystem::remove_all(outside);
   std::filesystem::remove_all(dir);
+}
+
+TEST_F(SceneTest, StaleMapReadsUnknownAtTheLastFramesStamp) {
+  // No frame integrated for stale_input_timeout (2 s, config/safety_map.yaml): the published
+  // grid turns all Unknown, still stamped with the last frame; the next frame makes it live.
+  test_util::ScenePublisher pub(*nh_, "/disp");
+  Latest<nav_msgs::OccupancyGrid> grid(*nh_, "/disp/safety_map");
+  Latest<SafetyMapMsg> labels(*nh_, "/disp/safety_map_labels");
+  ASSERT_TRUE(pub.waitForSubscribers(10.0));
+  ros::Time last;
+  for (int i = 0; i < 3; ++i) {
+    last = ros::Time::now();
+    pub.publishDisparity(last);
+    test_util::sleepFor(0.15);
+  }
+  ASSERT_TRUE(waitFor([&] { return grid.get() && grid.get()->header.stamp == last; }, 5.0));
+  const ros::WallTime live_at = ros::WallTime::now();
+  EXPECT_EQ(costAt(*grid.get(), 2.3, 0.0), 100);
+  auto allUnknown = [&] {
+    const auto g = grid.get();
+    return g && std::all_of(g->data.begin(), g->data.end(), [](std::int8_t v) { return v == -1; });
+  };
+  EXPECT_FALSE(allUnknown());
+  ASSERT_TRUE(waitFor(allUnknown, 6.0)) << "the map did not go stale";
+  const double after = (ros::WallTime::now() - live_at).toSec();
+  EXPECT_GT(after, 1.5);  // not before stale_input_timeout (2 s, less the frames' latency)
+  EXPECT_LT(after, 3.5);  // checked every 0.25 s
+  EXPECT_EQ(grid.get()->header.stamp, last) << "the stale map keeps the last frame's stamp";
+  EXPECT_FALSE(grid.get()->data.empty());
+  // The labels keep their content and stamp: their consumers (gate, hybrid) check the age.
+  ASSERT_TRUE(labels.get());
+  EXPECT_EQ(labels.get()->header.stamp, last);
+
+  pub.publishDisparity(ros::Time::now());
+  ASSERT_TRUE(waitFor([&] { return !allUnknown(); }, 5.0)) << "a new frame did not revive it";
+  EXPECT_EQ(costAt(*grid.get(), 2.3, 0.0), 100);
 }
 
 TEST_F(SceneTest, ResetClearsTheMap) {

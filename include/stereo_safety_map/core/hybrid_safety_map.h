@@ -71,9 +71,11 @@ enum class HybridLabel : std::uint8_t {
 };
 
 const char* toString(HybridLabel label);
-/// nav_msgs/OccupancyGrid value of a class, one explicit table: Unknown -1, Safe 0, Caution 50,
-/// Hazard 99, Obstacle 100.
-std::int8_t toOccupancyValue(HybridLabel label);
+struct HybridSafetyMapConfig;
+/// nav_msgs/OccupancyGrid value of a class, one explicit table: Unknown -1, Safe 0, Caution
+/// `caution_cost` (50), Hazard `hazard_cost` (100: lethal, 001 Sec. 2.1's hazards, drop-offs
+/// among them, are as dangerous as obstacles), Obstacle 100.
+std::int8_t toOccupancyValue(HybridLabel label, const HybridSafetyMapConfig& config);
 /// Safe and Caution cells may be driven on.
 inline bool isTraversable(HybridLabel l) {
   return l == HybridLabel::kSafe || l == HybridLabel::kCaution;
@@ -114,6 +116,11 @@ struct HybridSafetyMapConfig {
   bool laser_free_required_for_safe = false;
   /// Footnote (a) of the table: laser Free with no vision information is Safe, not Unknown.
   bool laser_free_vision_unknown_is_safe = false;
+  /// OccupancyGrid value of Hazard cells, [1, 100]; 100 = lethal (001 Sec. 2.1: overhangs,
+  /// drop-offs, steep inclines). Below 100 a costmap needs trinary_costmap: false.
+  int hazard_cost = 100;
+  /// OccupancyGrid value of Caution cells, [0, 99] (001 Sec. 2.1: drivable with care).
+  int caution_cost = 50;
 
   /// Empty when valid, otherwise a message naming the first offending parameter and its range.
   std::string validate() const;

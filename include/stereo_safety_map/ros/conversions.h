@@ -5,6 +5,7 @@
 // bad message is counted and skipped by the caller instead of crashing the nodelet.
 #pragma once
 
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
@@ -29,41 +30,9 @@
 namespace stereo_safety_map {
 
 // ---------------------------------------------------------------------------------------------
-// Safety label -> nav_msgs/OccupancyGrid value: the one translation table.
-//
-//   label / annotation             value        meaning for a planner
-//   Level                          0            free
-//   Inclined                       10 .. 50     free with a cost growing linearly with the plane's
-//                                               slope from theta_T (10) to theta_max (50)
-//   potential drop-off edge        90           "requires further observation" (000 Sec. VI):
-//                                               high cost, not lethal; overrides Level / Inclined
-//   Non-ground                     100          lethal (obstacle, too steep, unreachable)
-//   Unknown                        -1           no information
-//   Unexamined (beyond R_max)      -1           no information
-//
-// With move_base's costmap_2d static layer: keep lethal_cost_threshold at 100 and
-// unknown_cost_value at -1; set trinary_costmap: false to keep the graded Inclined and drop-off
-// costs (with the default trinary_costmap: true every value in 0..99 becomes free space).
-
-/// One row of the translation table. Inclined cells interpolate between cost and cost_max.
-struct LabelCost {
-  SafetyLabel label;
-  std::int8_t cost;      ///< value at the lowest slope of the label
-  std::int8_t cost_max;  ///< value at the highest slope (== cost for all but Inclined)
-};
-
-/// Indexed by the label's value (SafetyLabel is 0..4).
-constexpr LabelCost kLabelCostTable[] = {
-    {SafetyLabel::kUnexamined, -1, -1},  {SafetyLabel::kUnknown, -1, -1},
-    {SafetyLabel::kLevel, 0, 0},         {SafetyLabel::kInclined, 10, 50},
-    {SafetyLabel::kNonGround, 100, 100},
-};
-constexpr std::int8_t kDropOffCost = 90;  ///< potential drop-off edge cells
-
-/// OccupancyGrid value of a cell through kLabelCostTable. `slope_deg` is the slope of the cell's
-/// plane (used by Inclined), `level_slope_deg` / `max_slope_deg` are theta_T / theta_max.
-std::int8_t safetyCost(SafetyLabel label, bool drop_off, double slope_deg, double level_slope_deg,
-                       double max_slope_deg);
+// Safety label -> nav_msgs/OccupancyGrid value: the one cost table is core/map_costs.h
+// (cellCost(), CostTable: Level 0, Inclined 10..50 with the slope, potential drop-off edge 100,
+// Non-ground 100, Unknown / Unexamined -1 by default; the README's "Cost table").
 
 // ---------------------------------------------------------------------------------------------
 // Inputs
@@ -147,9 +116,11 @@ std::string pointCloud2ToPoints(const sensor_msgs::PointCloud2& msg,
 /// (u l_v, v l_v), so the origin is the corner of cell (min_u, min_v).
 nav_msgs::MapMetaData mapMetaData(const SafetyMap& map, const ros::Time& load_time);
 
-/// Costs through kLabelCostTable. `labelling` gives theta_T / theta_max for Inclined.
+/// Costs through the cost table (core/map_costs.h: safetyMapCosts). `labelling` gives theta_T /
+/// theta_max for Inclined.
 void toOccupancyGrid(const SafetyMap& map, const SafetyLabellingConfig& labelling,
-                     const std_msgs::Header& header, nav_msgs::OccupancyGrid* out);
+                     const CostTable& costs, const std_msgs::Header& header,
+                     nav_msgs::OccupancyGrid* out);
 
 /// Labels, drop-off edges, segments with their planes.
 void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,

@@ -29,9 +29,8 @@ namespace stereo_safety_map {
 //
 //   class      value   meaning for a planner (costmap_2d static layer, lethal_cost_threshold 100)
 //   Safe       0       free
-//   Caution    50      drivable with care: a cost, not an obstacle
-//   Hazard     99      overhang / drop-off / too steep: not lethal to costmap_2d's inflation
-//                      (only 100 is), but "do not enter" to any planner using the raw grid
+//   Caution    50      drivable with care: a cost, not an obstacle (~caution_cost)
+//   Hazard     100     overhang / drop-off / too steep: lethal (~hazard_cost, [1, 100])
 //   Obstacle   100     lethal
 //   Unknown    -1      no information
 
@@ -50,9 +49,10 @@ std::string safetyMapFromMsg(const SafetyMapMsg& msg, SafetyMap* out);
 /// (REP 117); the core skips NaN and treats +inf as no return.
 std::string laserScanInfoFromMsg(const sensor_msgs::LaserScan& msg, LaserScanInfo* out);
 
-/// The hybrid map as costs through toOccupancyValue() (table above).
-void toHybridOccupancyGrid(const HybridSafetyMap& map, const std_msgs::Header& header,
-                           nav_msgs::OccupancyGrid* out);
+/// The hybrid map as costs through toOccupancyValue() (table above; `config` holds the
+/// configurable rows).
+void toHybridOccupancyGrid(const HybridSafetyMap& map, const HybridSafetyMapConfig& config,
+                           const std_msgs::Header& header, nav_msgs::OccupancyGrid* out);
 
 /// The label message: hybrid classes, and per cell the vision label of `vision` (or UNKNOWN when
 /// `vision_used` is false or the cell lies outside it) and the laser state at the cell's centre.

@@ -10,6 +10,7 @@
 #pragma once
 
 #include "stereo_safety_map/core/config_fields.h"
+#include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/core/param_fields.h"
 #include "stereo_safety_map/core/safety_mapper.h"
 
@@ -34,15 +35,24 @@ struct SafetyMapRosConfig {
   double tf_timeout = 0.1;        ///< wait for the base frame's transform [s]
   int disparity_step = 1;         ///< use every n-th pixel in rows and columns
   double time_jump_reset = 1.0;   ///< stamps going back by more than this reset the map [s]
-  std::string save_prefix = "/tmp/stereo_safety_map/map";  ///< ~save without a path_prefix
+  /// ~save writes only under this directory (absolute; created when missing).
+  std::string save_directory = "/tmp/stereo_safety_map";
+  /// ~save without a path_prefix; relative to save_directory (an absolute one must lie in it).
+  std::string save_prefix = "map";
   /// Drop a frame whose data are byte for byte the previous frame's (a frozen camera or driver
   /// re-sending its last buffer); off for noiseless simulators that repeat frames.
   bool reject_frozen_input = true;
   /// A frame whose transform arrived more than this after the frame [s] is dropped: its pose
   /// would be interpolated across a gap in tf (odometry stalled), not measured.
   double max_tf_wait = 1.0;
-  /// Diagnostics WARN when no input arrived, or none was used, for this long [s].
+  /// Diagnostics WARN when no input arrived, or none was used, for this long [s]; after this long
+  /// without a frame integrated (by the ROS clock, against the map's stamp) the published
+  /// OccupancyGrid turns all Unknown.
   double stale_input_timeout = 2.0;
+  /// The OccupancyGrid's cost table (core/map_costs.h).
+  CostTable costs;
+  /// Height of the safety_obstacles points above the robot's base [m].
+  double obstacles_cloud_height = 0.1;
 
   /// Empty when valid, otherwise a message naming the parameter and its range.
   std::string validate() const;

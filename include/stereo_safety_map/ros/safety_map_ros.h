@@ -143,12 +143,18 @@ class SafetyMapRos {
   /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
   void reject(const std::string& reason, const std::string& detail);
   void publishOutputs(const std_msgs::Header& header, const Eigen::Vector3f& robot_position);
-  /// Map and labels only (core_mutex_ held), e.g. after aging.
-  void publishMap(const std_msgs::Header& header);
+  /// Map, labels and safety_obstacles (core_mutex_ held). `header.stamp` is the stamp of the last
+  /// frame integrated (or skipped as stationary); `from_frame` when a frame vouches for the map
+  /// now (it is fresh again), false when the timer republishes it (aged, or stale: then the
+  /// OccupancyGrid is all Unknown and safety_obstacles is not published).
+  void publishMap(const std_msgs::Header& header, bool from_frame);
+  /// The OccupancyGrid (all Unknown while stale) and safety_obstacles (not while stale) alone.
+  void publishGrid(const std_msgs::Header& header);
   /// True when the frame's data are byte for byte those of the previous frame (another stamp):
   /// a frozen camera or driver. Worker only.
   bool frozen(const Frame& frame);
-  /// Ages the map by the clock while frames do not (max_cell_age), and republishes it.
+  /// Ages the map by the clock while frames do not (max_cell_age), and republishes it; after
+  /// stale_input_timeout without a frame, republishes the OccupancyGrid as all Unknown.
   void ageTimerCb();
 
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
@@ -188,6 +194,7 @@ class SafetyMapRos {
   ros::Publisher points_pub_;
   ros::Publisher timings_pub_;
   ros::Publisher landmarks_pub_;  ///< permanent landmarks (001 Sec. 4.2), with the filter on
+  ros::Publisher obstacles_pub_;  ///< safety_obstacles: the lethal cells as points
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -227,6 +234,14 @@ class SafetyMapRos {
   LandmarkStreamConfig landmark_config_;
   std::vector<Eigen::Vector3f> landmark_points_;
   Eigen::Vector3f robot_position_ = Eigen::Vector3f::Zero();
+  // What was published (guarded by core_mutex_): the map's stamp (the last frame integrated or
+  // skipped as stationary), the ROS time a frame last vouched for it, whether the published
+  // OccupancyGrid is the stale (all Unknown) one. Buffers reused for the costs and the cloud.
+  ros::Time map_stamp_;
+  ros::Time map_vouched_at_;
+  std::atomic<bool> map_stale_{false};        ///< (atomic: diagnostics read it)
+  std::atomic<std::uint64_t> stale_maps_{0};  ///< times the published map went stale
+  std::vector<Eigen::Vector3f> obstacle_points_;
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
