@@ -422,7 +422,11 @@ ParamFieldList<H> makeHybridFields() {
   l.add("drop_off_edges_are_caution", &H::drop_off_edges_are_caution)
       .doc(
           "000's potential drop-off edges are Caution (000 Sec. VI: they need further "
-          "observation).");
+          "observation) when drop_off_edges_are_hazard is off.");
+  l.add("drop_off_edges_are_hazard", &H::drop_off_edges_are_hazard)
+      .doc(
+          "000's potential drop-off edges are Hazard, lethal (ours: Caution reads as free to a "
+          "trinary costmap; false = Caution, 000 Sec. VI).");
   l.add("laser_free_required_for_safe", &H::laser_free_required_for_safe)
       .doc("Level / Inclined need laser Free to be Safe / Caution (001 Sec. 5 read literally).");
   l.add("laser_free_vision_unknown_is_safe", &H::laser_free_vision_unknown_is_safe)

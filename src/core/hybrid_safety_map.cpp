@@ -161,9 +161,15 @@ void HybridSafetyMapBuilder::build(HybridSource source, const SafetyMap& vision,
           label = mergedLabel(vl, ls, config_);
           break;
       }
-      // Potential Drop-off Edges need further observation (000 Sec. VI).
-      if (label == HybridLabel::kSafe && config_.drop_off_edges_are_caution && has_drop_off &&
-          vision.drop_off[i] && source != HybridSource::kLaserOnly) {
+      // Potential Drop-off Edges need further observation (000 Sec. VI). A planner must not
+      // cross one before it was observed: Hazard (lethal) by default; Caution (a cost below
+      // lethal, which a trinary costmap reads as free) only when drop_off_edges_are_hazard is off.
+      const bool on_edge =
+          has_drop_off && vision.drop_off[i] && source != HybridSource::kLaserOnly;
+      if (on_edge && config_.drop_off_edges_are_hazard &&
+          (label == HybridLabel::kSafe || label == HybridLabel::kCaution)) {
+        label = HybridLabel::kHazard;
+      } else if (on_edge && label == HybridLabel::kSafe && config_.drop_off_edges_are_caution) {
         label = HybridLabel::kCaution;
       }
       out->labels[i] = label;

@@ -72,6 +72,13 @@ double worstFloorError(const std::vector<Eigen::Vector3f>& pts, const Eigen::Iso
   return worst;
 }
 
+// relevel is off by default (config/safety_map.yaml says why); these tests switch it on.
+FrameLevellingConfig enabledConfig() {
+  FrameLevellingConfig c;
+  c.enabled = true;
+  return c;
+}
+
 TEST(FrameLevellingConfig, Validate) {
   EXPECT_EQ(FrameLevellingConfig().validate(), "");
   FrameLevellingConfig c;
@@ -89,7 +96,7 @@ TEST(FrameLevelling, UndoesAnUnreportedPitchRollAndHeightOnTheRobotsFloor) {
   ASSERT_GT(worstFloorError(pts, T_rep), 0.06);  // 0.9 deg at 5 m
   Eigen::Isometry3f T_fixed;
   FrameLevellingResult r;
-  ASSERT_TRUE(levelFrame(pts, T_rep, reference, FrameLevellingConfig(), &T_fixed, &r));
+  ASSERT_TRUE(levelFrame(pts, T_rep, reference, enabledConfig(), &T_fixed, &r));
   EXPECT_TRUE(r.applied);
   EXPECT_NEAR(r.roll_deg, -0.6, 0.05);
   EXPECT_NEAR(r.pitch_deg, 0.9, 0.05);
@@ -112,23 +119,23 @@ TEST(FrameLevelling, RefusesWhatIsNotChassisBobbingOrHasNoGround) {
   FrameLevellingResult r;
   // 5 deg: beyond max_correction_deg.
   const Eigen::Isometry3f far = reported(T_true, 0.0, 5.0, 0.0).cast<float>();
-  EXPECT_FALSE(levelFrame(pts, far, reference, FrameLevellingConfig(), &T_fixed, &r));
+  EXPECT_FALSE(levelFrame(pts, far, reference, enabledConfig(), &T_fixed, &r));
   EXPECT_FALSE(r.applied);
   EXPECT_TRUE(T_fixed.isApprox(far));
   // No reference ground, or off.
   const Eigen::Isometry3f near = reported(T_true, 0.3, 0.3, 0.0).cast<float>();
   const GroundReference none = [](float, float) { return std::numeric_limits<float>::quiet_NaN(); };
-  EXPECT_FALSE(levelFrame(pts, near, none, FrameLevellingConfig(), &T_fixed, &r));
+  EXPECT_FALSE(levelFrame(pts, near, none, enabledConfig(), &T_fixed, &r));
   FrameLevellingConfig off;
   off.enabled = false;
   EXPECT_FALSE(levelFrame(pts, near, reference, off, &T_fixed, &r));
   // Too few points, or a strip too narrow to tell the roll.
   const std::vector<Eigen::Vector3f> few(pts.begin(), pts.begin() + 100);
-  EXPECT_FALSE(levelFrame(few, near, reference, FrameLevellingConfig(), &T_fixed, &r));
+  EXPECT_FALSE(levelFrame(few, near, reference, enabledConfig(), &T_fixed, &r));
   const GroundReference strip = [](float, float y) {
     return std::abs(y) < 0.2f ? 0.0f : std::numeric_limits<float>::quiet_NaN();
   };
-  EXPECT_FALSE(levelFrame(pts, near, strip, FrameLevellingConfig(), &T_fixed, &r));
+  EXPECT_FALSE(levelFrame(pts, near, strip, enabledConfig(), &T_fixed, &r));
 }
 
 }  // namespace

@@ -246,13 +246,32 @@ TEST(HybridSafetyMap, PassagesNarrowerThanTheMinimumWidthAreCaution) {
   EXPECT_EQ(out.labelAt(20, 18), HybridLabel::kSafe);
 }
 
-TEST(HybridSafetyMap, PotentialDropOffEdgesAreCaution) {
+TEST(HybridSafetyMap, PotentialDropOffEdgesAreHazardByDefault) {
   SafetyMap v = visionMap(-5, -5, 10, 10);
   v.drop_off[v.index(0, 0)] = 1;
   LaserGrid grid;
   grid.setLogOdds(0, 0, kFree);
   HybridSafetyMap out;
-  HybridSafetyMapBuilder b;
+  HybridSafetyMapBuilder().build(HybridSource::kMerged, v, grid, &out);
+  EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kHazard);
+  EXPECT_EQ(out.labelAt(1, 0), HybridLabel::kSafe);
+  HybridSafetyMapBuilder().build(HybridSource::kStereoOnly, v, grid, &out);
+  EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kHazard);
+  HybridSafetyMapBuilder().build(HybridSource::kLaserOnly, v, grid, &out);
+  EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kSafe);  // the laser knows nothing of drop-offs
+  // Lethal to a costmap's static layer.
+  EXPECT_EQ(toOccupancyValue(HybridLabel::kHazard, HybridSafetyMapConfig()), 100);
+}
+
+TEST(HybridSafetyMap, PotentialDropOffEdgesAreCautionWithTheHazardSwitchOff) {
+  SafetyMap v = visionMap(-5, -5, 10, 10);
+  v.drop_off[v.index(0, 0)] = 1;
+  LaserGrid grid;
+  grid.setLogOdds(0, 0, kFree);
+  HybridSafetyMap out;
+  HybridSafetyMapConfig caution;
+  caution.drop_off_edges_are_hazard = false;
+  HybridSafetyMapBuilder b(caution);
   b.build(HybridSource::kMerged, v, grid, &out);
   EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kCaution);
   EXPECT_EQ(out.labelAt(1, 0), HybridLabel::kSafe);
@@ -260,7 +279,7 @@ TEST(HybridSafetyMap, PotentialDropOffEdgesAreCaution) {
   EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kCaution);
   b.build(HybridSource::kLaserOnly, v, grid, &out);
   EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kSafe);  // the laser knows nothing of drop-offs
-  HybridSafetyMapConfig cfg;
+  HybridSafetyMapConfig cfg = caution;
   cfg.drop_off_edges_are_caution = false;
   HybridSafetyMapBuilder(cfg).build(HybridSource::kMerged, v, grid, &out);
   EXPECT_EQ(out.labelAt(0, 0), HybridLabel::kSafe);

@@ -30,7 +30,8 @@
 //     cell keeps its vision class. laser_free_required_for_safe makes these cells Unknown, 001's
 //     literal "clear to the lasers and ... ground plane" reading.
 // Then, on the result:
-//   - Safe cells on a Potential Drop-off Edge (000 Sec. VI) become Caution when
+//   - Safe and Caution cells on a Potential Drop-off Edge (000 Sec. VI) become Hazard when
+//     drop_off_edges_are_hazard is set (default, ours), else Safe ones become Caution when
 //     drop_off_edges_are_caution is set: 000 asks for them to be treated as needing observation.
 //   - Safe cells in a passage narrower than min_passage_width become Caution (001 Sec. 2.1,
 //     "narrow regions", e.g. doorways): along one of the directions 0, 45, 90 or 135 degrees,
@@ -110,8 +111,13 @@ struct HybridSafetyMapConfig {
   /// [m], (0, 100]. 0.915 m = 36 in, the ADA minimum clear width for continuous wheelchair
   /// passage (001 cites the ADA standards, [17]).
   double min_passage_width = 0.915;
-  /// Safe cells on 000's Potential Drop-off Edges become Caution.
+  /// Safe cells on 000's Potential Drop-off Edges become Caution (with
+  /// drop_off_edges_are_hazard off).
   bool drop_off_edges_are_caution = true;
+  /// Safe and Caution cells on 000's Potential Drop-off Edges become Hazard (ours; the safe
+  /// default: a Caution cost reads as free to a trinary costmap, and a chair must not roll onto
+  /// an edge it has not observed; false = Caution as 000 Sec. VI's "needs observation").
+  bool drop_off_edges_are_hazard = true;
   /// Footnote (b) of the table: Level / Inclined need laser Free to be Safe / Caution.
   bool laser_free_required_for_safe = false;
   /// Footnote (a) of the table: laser Free with no vision information is Safe, not Unknown.
