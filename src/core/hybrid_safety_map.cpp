@@ -164,8 +164,7 @@ void HybridSafetyMapBuilder::build(HybridSource source, const SafetyMap& vision,
       // Potential Drop-off Edges need further observation (000 Sec. VI). A planner must not
       // cross one before it was observed: Hazard (lethal) by default; Caution (a cost below
       // lethal, which a trinary costmap reads as free) only when drop_off_edges_are_hazard is off.
-      const bool on_edge =
-          has_drop_off && vision.drop_off[i] && source != HybridSource::kLaserOnly;
+      const bool on_edge = has_drop_off && vision.drop_off[i] && source != HybridSource::kLaserOnly;
       if (on_edge && config_.drop_off_edges_are_hazard &&
           (label == HybridLabel::kSafe || label == HybridLabel::kCaution)) {
         label = HybridLabel::kHazard;

@@ -325,9 +325,9 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
 
 void SafetyMapper::applyObstacleMemory(std::int32_t robot_w) {
   auto key = [](int u, int v) {
-    return static_cast<std::int64_t>((static_cast<std::uint64_t>(static_cast<std::uint32_t>(u))
-                                      << 32) |
-                                     static_cast<std::uint32_t>(v));
+    return static_cast<std::int64_t>(
+        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+        static_cast<std::uint32_t>(v));
   };
   SafetyMap& m = map_;
   // Cells that hold an obstacle now: non-traversable columns and small obstacles' tops.

@@ -433,8 +433,9 @@ int main(int argc, char** argv) {
       total += s;
     md << "| " << c.condition << " | " << c.variant << " | " << c.scenes.size() << " | " << pct(fn0)
        << " | " << pct(fn1) << " | " << pct(fp0) << " | " << pct(fp1) << " | " << pct(cov) << " | "
-       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << total.forgotten_cells << " | " << total.obstacles_missed_strict
-       << " / " << total.obstacles_missed_lenient << " / " << total.obstacles_in_view << " |\n";
+       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << total.forgotten_cells
+       << " | " << total.obstacles_missed_strict << " / " << total.obstacles_missed_lenient << " / "
+       << total.obstacles_in_view << " |\n";
     j.open('{');
     j.kv("condition", c.condition)
         .kv("variant", c.variant)

@@ -498,8 +498,8 @@ TEST(GroundSegmentationFootprint, TheFootprintSeedsTheRobotsSegment) {
 // the footprint, which is at the base's height.
 TEST(GroundSegmentationFootprint, ObservedGroundWithinTheSeedRadiusAndTheFootprintAreOneSegment) {
   // Observed floor from 0.7 m ahead, within the seed radius (1 m), beyond the footprint.
-  HeightMap hm = fromText({"........00000", "........00000", "........00000", "........00000",
-                           "........00000"});
+  HeightMap hm = fromText(
+      {"........00000", "........00000", "........00000", "........00000", "........00000"});
   GroundSegmentationConfig c;
   c.footprint_radius = 0.2;
   c.seed_radius = 1.0;
@@ -508,14 +508,14 @@ TEST(GroundSegmentationFootprint, ObservedGroundWithinTheSeedRadiusAndTheFootpri
   ASSERT_TRUE(seg.segment(hm, VoxelIndex{1, 2, 0}, 0.1, &s));
   expectConsistent(hm, s);
   ASSERT_EQ(s.robot_segment, 0);
-  EXPECT_FALSE(s.footprint[s.seed_cell]);              // seeded on observed ground
-  EXPECT_EQ(s.segment_of[s.index(10, 2)], 0);          // the floor ahead
-  EXPECT_EQ(s.segment_of[s.index(1, 2)], 0);           // the robot's own cell (footprint)
+  EXPECT_FALSE(s.footprint[s.seed_cell]);      // seeded on observed ground
+  EXPECT_EQ(s.segment_of[s.index(10, 2)], 0);  // the floor ahead
+  EXPECT_EQ(s.segment_of[s.index(1, 2)], 0);   // the robot's own cell (footprint)
   EXPECT_EQ(s.numSegments(), 1);
   // The floor one index up: the footprint (at the base's height) seeds the robot's segment and
   // the floor is a segment of its own (a step the labelling judges).
-  HeightMap up = fromText({"........11111", "........11111", "........11111", "........11111",
-                           "........11111"});
+  HeightMap up = fromText(
+      {"........11111", "........11111", "........11111", "........11111", "........11111"});
   ASSERT_TRUE(seg.segment(up, VoxelIndex{1, 2, 0}, 0.1, &s));
   expectConsistent(up, s);
   ASSERT_EQ(s.robot_segment, 0);
