@@ -29,6 +29,7 @@
 #include "stereo_safety_map/dataset/ground_truth.h"
 #include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/msgs.h"
+#include "tool_support/json.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -975,92 +976,7 @@ std::string evaluateRecorded(const Options& opt, const ssm::Dataset& ds, std::ve
 // ---------------------------------------------------------------------------------------------
 // Output: JSON and Markdown
 
-class Json {
- public:
-  std::string str() const { return os_.str(); }
-  Json& open(char c) {
-    sep();
-    os_ << c;
-    first_ = true;
-    return *this;
-  }
-  Json& close(char c) {
-    os_ << c;
-    first_ = false;
-    return *this;
-  }
-  Json& key(const std::string& k) {
-    sep();
-    quote(k);
-    os_ << ": ";
-    first_ = true;
-    after_key_ = true;
-    return *this;
-  }
-  Json& val(double v) {
-    sep();
-    if (std::isfinite(v)) {
-      char buf[32];
-      std::snprintf(buf, sizeof(buf), "%.6g", v);
-      os_ << buf;
-    } else {
-      os_ << "null";
-    }
-    return *this;
-  }
-  Json& val(long long v) {
-    sep();
-    os_ << v;
-    return *this;
-  }
-  Json& val(int v) { return val(static_cast<long long>(v)); }
-  Json& val(std::uint64_t v) { return val(static_cast<long long>(v)); }
-  Json& val(bool v) {
-    sep();
-    os_ << (v ? "true" : "false");
-    return *this;
-  }
-  Json& val(const std::string& s) {
-    sep();
-    quote(s);
-    return *this;
-  }
-  Json& val(const char* s) { return val(std::string(s)); }
-  template <typename T>
-  Json& kv(const std::string& k, const T& v) {
-    key(k);
-    return val(v);
-  }
-
- private:
-  void sep() {
-    if (after_key_) {
-      after_key_ = false;
-      first_ = false;
-      return;
-    }
-    if (!first_) os_ << ", ";
-    first_ = false;
-  }
-  void quote(const std::string& s) {
-    os_ << '"';
-    for (char c : s) {
-      if (c == '"' || c == '\\') {
-        os_ << '\\' << c;
-      } else if (static_cast<unsigned char>(c) < 0x20) {
-        char buf[8];
-        std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-        os_ << buf;
-      } else {
-        os_ << c;
-      }
-    }
-    os_ << '"';
-  }
-  std::ostringstream os_;
-  bool first_ = true;
-  bool after_key_ = false;
-};
+using stereo_safety_map::tools::Json;  // tool_support/json.h
 
 void jsonMeanStd(Json& j, const std::string& k, const ssm::MeanStd& m) {
   j.key(k).open('{').kv("mean", m.mean).kv("std", m.stddev).kv("n", m.n).close('}');
