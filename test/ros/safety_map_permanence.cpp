@@ -137,7 +137,7 @@ std::string where(const Cell& c) {
 bool isSafeLabel(int l) {
   return l == SafetyMapMsg::LEVEL || l == SafetyMapMsg::INCLINED;
 }
-/// Free for a planner: Level, Inclined or a drop-off edge (0..99; 100 lethal, -1 unknown).
+/// Free for a planner that reads costs below lethal as free: 0..99 (100 lethal, -1 unknown).
 bool isFreeCost(int c) {
   return c >= 0 && c < 100;
 }
