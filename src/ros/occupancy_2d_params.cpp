@@ -31,7 +31,7 @@ std::string Occupancy2DRosConfig::validate() const {
   if (fixed_frame.empty()) {
     os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
   } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_link)";
+    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
   } else if (queue_size < 1 || queue_size > 1000) {
     os << "queue_size = " << queue_size << ", must be in [1, 1000]";
   } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {

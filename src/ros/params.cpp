@@ -23,7 +23,7 @@ std::string SafetyMapRosConfig::validate() const {
   } else if (fixed_frame.empty()) {
     os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
   } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_link)";
+    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
   } else if (queue_size < 1 || queue_size > 1000) {
     os << "queue_size = " << queue_size << ", must be in [1, 1000]";
   } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {
@@ -67,7 +67,15 @@ const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
         .doc("frame the map is built in; only needs to be locally consistent (000 Sec. III).");
     l.add("base_frame", &R::base_frame)
         .rangeText("non-empty")
-        .doc("robot frame, origin on the ground under the robot (000 Alg. 1 step 2).");
+        .doc(
+            "robot frame, origin on the ground under the robot (000 Alg. 1 step 2); REP 120's "
+            "footprint frame.");
+    l.add("sensor_frame", &R::sensor_frame)
+        .rangeText("tf frame or empty")
+        .doc(
+            "input cloud: the sensor's frame, where its rays start (free space, stationary "
+            "frames), for a cloud already transformed into another frame (the robot's, odom); "
+            "empty = the cloud's own frame (ours).");
     l.add("queue_size", &R::queue_size)
         .closed(1, 1000)
         .doc(

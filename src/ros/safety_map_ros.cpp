@@ -155,6 +155,11 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
                                "in the image); clouds are not filtered");
     }
   }
+  if (!ros_config_.sensor_frame.empty() && ros_config_.input != "cloud") {
+    ROS_WARN_STREAM(name_ << ": sensor_frame '" << ros_config_.sensor_frame
+                          << "' is used with input: cloud only; a disparity image is in its "
+                             "camera's frame");
+  }
   reset_srv_ = pnh_.advertiseService("reset", &SafetyMapRos::resetSrv, this);
   save_srv_ = pnh_.advertiseService("save", &SafetyMapRos::saveSrv, this);
 
@@ -178,7 +183,10 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   setUpObstacleCue();
   ROS_INFO_STREAM(name_ << ": building the safety map in '" << ros_config_.fixed_frame << "' from "
                         << (ros_config_.input == "cloud" ? "point clouds" : "disparity images")
-                        << ", robot frame '" << ros_config_.base_frame << "'");
+                        << ", robot frame '" << ros_config_.base_frame << "'"
+                        << (ros_config_.input == "cloud" && !ros_config_.sensor_frame.empty()
+                                ? ", sensor frame '" + ros_config_.sensor_frame + "'"
+                                : std::string()));
 }
 
 SafetyMapRos::~SafetyMapRos() {
@@ -466,13 +474,29 @@ void SafetyMapRos::processFrame(const Frame& frame) {
 
   // Transforms: the sensor's is available (the tf2 MessageFilter waited for it); the base's
   // may need a moment more.
+  // A cloud already in another frame (sensor_frame set): the rays start at the sensor, so the
+  // points go to the sensor's frame and the pose is the sensor's.
   Eigen::Isometry3f T_fixed_sensor;
+  Eigen::Isometry3f T_sensor_data = Eigen::Isometry3f::Identity();
+  const bool cloud_in_other_frame = frame.cloud && !ros_config_.sensor_frame.empty() &&
+                                    ros_config_.sensor_frame != frame.header.frame_id;
   Eigen::Vector3f robot_position;
   try {
-    T_fixed_sensor =
-        tf2::transformToEigen(
-            tf_buffer_->lookupTransform(ros_config_.fixed_frame, frame.header.frame_id, stamp))
-            .cast<float>();
+    if (cloud_in_other_frame) {
+      T_fixed_sensor = tf2::transformToEigen(tf_buffer_->lookupTransform(
+                                                 ros_config_.fixed_frame, ros_config_.sensor_frame,
+                                                 stamp, ros::Duration(ros_config_.tf_timeout)))
+                           .cast<float>();
+      T_sensor_data = tf2::transformToEigen(tf_buffer_->lookupTransform(
+                                                ros_config_.sensor_frame, frame.header.frame_id,
+                                                stamp, ros::Duration(ros_config_.tf_timeout)))
+                          .cast<float>();
+    } else {
+      T_fixed_sensor =
+          tf2::transformToEigen(
+              tf_buffer_->lookupTransform(ros_config_.fixed_frame, frame.header.frame_id, stamp))
+              .cast<float>();
+    }
     const geometry_msgs::TransformStamped base =
         tf_buffer_->lookupTransform(ros_config_.fixed_frame, ros_config_.base_frame, stamp,
                                     ros::Duration(ros_config_.tf_timeout));
@@ -526,6 +550,10 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     non_finite = stats.non_finite;
     values = stats.points;
     if (frozen(frame)) return;
+    if (cloud_in_other_frame) {
+      for (Eigen::Vector3f& p : points_)
+        p = T_sensor_data * p;
+    }
     if (points_.empty()) {
       std::ostringstream os;
       os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "

@@ -195,6 +195,54 @@ TEST_F(SceneTest, CloudInputLabelsFloorAndBox) {
   expectSceneLabels(*labels.get());
 }
 
+// sensor_frame: the same cloud already transformed into another frame (far_away, 50 m from the
+// robot, as a cloud in a map frame would be) gives the same map as in the camera's frame. Without
+// it the rays would start at far_away's origin: outside the grid, every frame refused.
+TEST_F(SceneTest, CloudInAnotherFrameUsesSensorFrame) {
+  const Eigen::Isometry3d T_odom_far(Eigen::Translation3d(50.0, 0.0, 0.0));
+  geometry_msgs::TransformStamped far = synthetic_scene::toMsg(T_odom_far, "odom", "far_away");
+  far.header.stamp = ros::Time::now();
+  tf_->sendTransform(far);
+  // The scene's cloud (camera frame) in far_away.
+  std_msgs::Header h;
+  h.frame_id = synthetic_scene::kCameraFrame;
+  sensor_msgs::PointCloud2 cloud = synthetic_scene::pointCloud(synthetic_scene::baseToCamera(), h);
+  const Eigen::Isometry3f T_far_camera =
+      (T_odom_far.inverse() * synthetic_scene::baseToCamera()).cast<float>();
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (std::size_t i = 0; i < cloud.width * cloud.height; ++i, ++x, ++y, ++z) {
+    const Eigen::Vector3f p = T_far_camera * Eigen::Vector3f(*x, *y, *z);  // NaN stays NaN
+    *x = p.x();
+    *y = p.y();
+    *z = p.z();
+  }
+  cloud.header.frame_id = "far_away";
+
+  ros::Publisher pub = nh_->advertise<sensor_msgs::PointCloud2>("/cloud_far/points", 10);
+  Latest<nav_msgs::OccupancyGrid> grid(*nh_, "/cloud_far/safety_map");
+  Latest<SafetyMapMsg> labels(*nh_, "/cloud_far/safety_map_labels");
+  Latest<StageTimingsMsg> timings(*nh_, "/cloud_far/stage_timings");
+  ASSERT_TRUE(waitFor([&] { return pub.getNumSubscribers() > 0; }, 20.0));
+  test_util::sleepFor(0.5);
+  for (int i = 0; i < kFrames; ++i) {
+    cloud.header.stamp = ros::Time::now();
+    pub.publish(cloud);
+    test_util::sleepFor(0.15);
+  }
+  ASSERT_TRUE(waitFor(
+      [&] {
+        auto t = timings.get();
+        return t && t->frames_processed >= static_cast<unsigned>(kFrames) - 2;
+      },
+      20.0))
+      << "frames of a cloud in another frame were not integrated";
+  test_util::sleepFor(0.5);
+  ASSERT_TRUE(grid.get());
+  expectSceneCosts(*grid.get(), "cloud in another frame");
+  ASSERT_TRUE(labels.get());
+  expectSceneLabels(*labels.get());
+}
+
 TEST_F(SceneTest, SaveWritesOctomapAndMapServerFiles) {
   // Runs after DisparityInput... (gtest keeps the order within a file): the map exists. A few
   // more frames keep it live (not stale), then it does not change: the saved PGM must be the

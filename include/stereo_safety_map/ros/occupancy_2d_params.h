@@ -22,9 +22,9 @@ namespace stereo_safety_map {
 
 /// Settings of the 2D occupancy-grid nodelet that are not the core's.
 struct Occupancy2DRosConfig {
-  std::string fixed_frame = "odom";      ///< frame the grid is built and published in
-  std::string base_frame = "base_link";  ///< robot frame, origin on the floor under the robot
-  int queue_size = 5;                    ///< subscriber / tf filter / sync queue [messages]
+  std::string fixed_frame = "odom";           ///< frame the grid is built and published in
+  std::string base_frame = "base_footprint";  ///< robot frame, origin on the floor (REP 120)
+  int queue_size = 5;                         ///< subscriber / tf filter / sync queue [messages]
   bool approximate_sync = false;  ///< approximate instead of exact DisparityImage-CameraInfo sync
   double max_rate = 0.0;          ///< most frames processed per second [Hz]; 0 = every frame
   double tf_timeout = 0.1;        ///< wait for the base frame's transform [s]

@@ -26,10 +26,14 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* config)
 
 /// Settings of the safety-map nodelet that are not the core's.
 struct SafetyMapRosConfig {
-  std::string input = "disparity";       ///< "disparity" (DisparityImage + CameraInfo) or "cloud"
-  std::string fixed_frame = "odom";      ///< frame the map is built in (000 Sec. III)
-  std::string base_frame = "base_link";  ///< robot frame, origin on the ground under the robot
-  int queue_size = 5;                    ///< subscriber / tf filter / sync queue [messages]
+  std::string input = "disparity";   ///< "disparity" (DisparityImage + CameraInfo) or "cloud"
+  std::string fixed_frame = "odom";  ///< frame the map is built in (000 Sec. III)
+  /// Robot frame, origin on the ground under the robot (REP 120's footprint frame).
+  std::string base_frame = "base_footprint";
+  /// input cloud: the frame rays start from (the sensor's origin) when the cloud is already
+  /// transformed into another frame (the robot's, odom); empty = the cloud's own frame.
+  std::string sensor_frame;
+  int queue_size = 5;             ///< subscriber / tf filter / sync queue [messages]
   bool approximate_sync = false;  ///< approximate instead of exact DisparityImage-CameraInfo sync
   double max_rate = 0.0;          ///< most frames processed per second [Hz]; 0 = every frame
   double tf_timeout = 0.1;        ///< wait for the base frame's transform [s]
