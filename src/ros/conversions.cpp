@@ -586,6 +586,45 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
     }
   }
   if (!cubes.points.empty()) out->markers.push_back(cubes);
+
+  visualization_msgs::Marker drop_offs;
+  if (dropOffEdgeMarker(map, header, &drop_offs)) out->markers.push_back(drop_offs);
+}
+
+bool dropOffEdgeMarker(const SafetyMap& map, const std_msgs::Header& header,
+                       visualization_msgs::Marker* out) {
+  const std::size_t n = static_cast<std::size_t>(std::max(map.width, 0)) *
+                        static_cast<std::size_t>(std::max(map.height, 0));
+  if (n == 0 || map.drop_off.size() != n) return false;
+  const double l = map.resolution;
+  *out = visualization_msgs::Marker();
+  out->header = header;
+  out->ns = "drop_off_edges";
+  out->id = 0;
+  out->type = visualization_msgs::Marker::CUBE_LIST;
+  out->action = visualization_msgs::Marker::ADD;
+  out->pose.orientation.w = 1.0;
+  out->scale.x = out->scale.y = l * 0.9;
+  out->scale.z = 0.04;
+  out->color = rgba(1.0f, 0.0f, 1.0f, 0.95f);  // magenta: no other label's colour
+  for (int v = map.min_v; v < map.min_v + map.height; ++v) {
+    for (int u = map.min_u; u < map.min_u + map.width; ++u) {
+      const std::size_t k = static_cast<std::size_t>(map.index(u, v));
+      if (map.drop_off[k] == 0) continue;
+      const double x = u * l, y = v * l;
+      double z = 0.0;
+      const int s = k < map.segment.size() ? map.segment[k] : -1;
+      const auto seg = std::find_if(map.segments.begin(), map.segments.end(),
+                                    [s](const SegmentInfo& si) { return si.id == s; });
+      if (s >= 0 && seg != map.segments.end()) {
+        z = seg->plane.valid ? seg->plane.heightAt(x, y) : seg->indexed_height * l;
+      } else if (k < map.column_height.size() && map.column_height[k] != SafetyMap::kNoHeight) {
+        z = map.column_height[k] * l;
+      }
+      out->points.push_back(point(x, y, z + 0.02));
+    }
+  }
+  return !out->points.empty();
 }
 
 void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header,

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace stereo_safety_map;
@@ -113,3 +114,33 @@ TEST(FromSafetyMapMsg, RefusesMalformedMessagesNamingTheField) {
 }
 
 }  // namespace
+
+// rviz: the drop-off edges get a marker of their own (the OccupancyGrid gives them Non-ground's
+// cost), exactly one tile per drop-off cell, on the cell's segment plane.
+TEST(DropOffEdgeMarker, OneTilePerDropOffCellOnItsPlane) {
+  SafetyMap m = sampleMap();
+  m.drop_off[9] = 1;  // on the ramp (column 4, row 1): plane z = tan(6 deg) x
+  std_msgs::Header h;
+  h.frame_id = "odom";
+  visualization_msgs::Marker marker;
+  ASSERT_TRUE(dropOffEdgeMarker(m, h, &marker));
+  EXPECT_EQ(marker.ns, "drop_off_edges");
+  EXPECT_EQ(marker.type, visualization_msgs::Marker::CUBE_LIST);
+  EXPECT_EQ(marker.header.frame_id, "odom");
+  ASSERT_EQ(marker.points.size(), 2u);
+  // Cell 2: (u, v) = (-10, 7) on the level plane z = 0.01.
+  EXPECT_NEAR(marker.points[0].x, -1.0, 1e-9);
+  EXPECT_NEAR(marker.points[0].y, 0.7, 1e-9);
+  EXPECT_NEAR(marker.points[0].z, 0.01 + 0.02, 1e-9);
+  // Cell 9: (u, v) = (-8, 8) on the ramp.
+  EXPECT_NEAR(marker.points[1].x, -0.8, 1e-9);
+  EXPECT_NEAR(marker.points[1].y, 0.8, 1e-9);
+  EXPECT_NEAR(marker.points[1].z, std::tan(6.0 * M_PI / 180.0) * -0.8 + 0.02, 1e-9);
+  // Not Non-ground's colour or any label's: magenta.
+  EXPECT_EQ(marker.color.r, 1.0f);
+  EXPECT_EQ(marker.color.g, 0.0f);
+  EXPECT_EQ(marker.color.b, 1.0f);
+
+  std::fill(m.drop_off.begin(), m.drop_off.end(), 0);
+  EXPECT_FALSE(dropOffEdgeMarker(m, h, &marker));
+}

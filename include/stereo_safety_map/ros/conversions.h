@@ -129,10 +129,18 @@ void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,
 /// The hybrid 3D model of paper 000 Fig. 4(b): per ground segment a TRIANGLE_LIST of its cells
 /// lifted onto its plane (Level green, Inclined yellow, Non-ground ground segments - unreachable
 /// or too steep - red; Unknown segments are not drawn), the slope of every drawn segment as text,
-/// and the occupied voxels under Non-ground cells (up to the robot's height) as grey cubes. The
-/// first marker is a DELETEALL so that segments that disappeared are removed.
+/// and the occupied voxels under Non-ground cells (up to the robot's height) as grey cubes, and
+/// the potential drop-off edges (dropOffEdgeMarker()). The first marker is a DELETEALL so that
+/// segments that disappeared are removed.
 void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
                    visualization_msgs::MarkerArray* out);
+
+/// The potential drop-off edges of 000 Sec. VI as magenta tiles (namespace `drop_off_edges`, one
+/// CUBE_LIST, 2 cm above their segment's plane, or their column's height without one). The
+/// OccupancyGrid gives them Non-ground's cost (cost_drop_off 100), so rviz's map display draws
+/// them alike; this marker tells them apart. False (and no marker) when the map has none.
+bool dropOffEdgeMarker(const SafetyMap& map, const std_msgs::Header& header,
+                       visualization_msgs::Marker* out);
 
 /// The point lists of all occupied voxels (000 Sec. IV: the 3D point cloud of the model).
 void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header,
