@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
   const Eigen::Quaterniond q(Eigen::AngleAxisd(v[3], Eigen::Vector3d::UnitZ()) *
                              Eigen::AngleAxisd(v[4], Eigen::Vector3d::UnitY()) *
                              Eigen::AngleAxisd(v[5], Eigen::Vector3d::UnitX()));
+  ros::NodeHandle nh;  // starts the node: ros::Time::now() needs it
   geometry_msgs::TransformStamped t;
   t.header.stamp = ros::Time::now();
   t.header.frame_id = args[7];
