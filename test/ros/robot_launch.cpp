@@ -2,8 +2,9 @@
 // the test node is the camera and the odometry. On simulated time, in lockstep at 10 Hz, it
 // renders scenes/dataset1_rail_dropoff_ramp.yaml (paper 000's dataset 1: a 35 cm drop-off left
 // of a centre rail) with the package's renderer at 320x240 while the chair drives towards the
-// drop-off, and publishes the rectified pair, CameraInfo, /clock and tf (odom -> base_footprint,
-// REP 120's footprint frame and robot.launch's default base frame, -> camera).
+// drop-off, and publishes the rectified pair, CameraInfo, /clock and tf odom -> base_footprint
+// (REP 120's footprint frame, robot.launch's default base frame); robot.launch publishes
+// base_footprint -> camera (camera_tf:=true with the head's mounting).
 //
 // Checked: robot.launch's nodes are wired (our disparity nodelet on the camera's image_rect, the
 // safety map on its disparity, the gate on the map): every frame's map is published, in odom, with
@@ -21,8 +22,10 @@
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
-#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
@@ -117,12 +120,17 @@ class RobotLaunch : public ::testing::Test {
     const ds::StereoHeadConfig head = sf.camera.scaledTo(320, 240);
     ds::StereoRenderer renderer(sf.scene, head, sf.seed);
 
-    tf2_ros::StaticTransformBroadcaster static_tf;
     tf2_ros::TransformBroadcaster tf;
-    geometry_msgs::TransformStamped cam =
-        stereo_scene::toMsg(head.baseToLeftOptical(), kBase, kOptical);
-    cam.header.stamp = t;
-    static_tf.sendTransform(cam);
+    // The camera's static tf comes from robot.launch (camera_tf:=true, static_tf_publisher, the
+    // head's mounting in the .test file's arguments): it must be the renderer's.
+    tf2_ros::Buffer buffer;
+    tf2_ros::TransformListener listener(buffer);
+    if (test_util::waitFor([&] { return buffer.canTransform(kBase, kOptical, ros::Time(0)); },
+                           30.0)) {
+      const Eigen::Isometry3d T =
+          tf2::transformToEigen(buffer.lookupTransform(kBase, kOptical, ros::Time(0)));
+      camera_tf_error_ = (T.matrix() - head.baseToLeftOptical().matrix()).cwiseAbs().maxCoeff();
+    }
     subscribed_ = stereo_->waitForSubscribers(1, 60.0);
     if (!subscribed_) return;
 
@@ -170,6 +178,7 @@ class RobotLaunch : public ::testing::Test {
   static test_util::Latest<GateStateMsg>* states_;
   static ros::Publisher* cmd_pub_;
   static std::string scene_error_;
+  static double camera_tf_error_;
   static bool subscribed_;
   static int frames_;
   static int maps_;
@@ -184,6 +193,7 @@ test_util::Latest<visualization_msgs::MarkerArray>* RobotLaunch::planes_ = nullp
 test_util::Latest<GateStateMsg>* RobotLaunch::states_ = nullptr;
 ros::Publisher* RobotLaunch::cmd_pub_ = nullptr;
 std::string RobotLaunch::scene_error_;
+double RobotLaunch::camera_tf_error_ = -1.0;
 bool RobotLaunch::subscribed_ = false;
 int RobotLaunch::frames_ = 0;
 int RobotLaunch::maps_ = 0;
@@ -192,6 +202,10 @@ ros::Time RobotLaunch::last_stamp_;
 TEST_F(RobotLaunch, PublishesTheSafetyMapOfEveryFrameAndGates) {
   ASSERT_EQ(scene_error_, "");
   ASSERT_TRUE(subscribed_) << "robot.launch's disparity nodelet never subscribed to /stereo";
+  // camera_tf:=true: static_tf_publisher's transform is the head's mounting.
+  EXPECT_GE(camera_tf_error_, 0.0)
+      << "no tf base_footprint -> " << kOptical << " from robot.launch";
+  EXPECT_LT(camera_tf_error_, 1e-6);
   std::printf("%d frames, %d maps\n", frames_, maps_);
   // Lockstep: each frame waits for its own map, so none may be missing.
   EXPECT_EQ(maps_, frames_) << maps_ << " maps for " << frames_ << " frames";
