@@ -55,6 +55,9 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(footprint_bridge) || footprint_bridge < 0.0 || footprint_bridge > 10.0) {
     return "footprint_bridge must be in [0, 10] m (0 = off)";
   }
+  if (!std::isfinite(bridge_tilt_deg) || bridge_tilt_deg < 0.0 || bridge_tilt_deg > 10.0) {
+    return "bridge_tilt_deg must be in [0, 10] deg";
+  }
   if (!std::isfinite(drop_off_radius) || drop_off_radius < 0.0 || drop_off_radius > 10.0) {
     return "drop_off_radius must be in [0, 10] m";
   }
@@ -279,6 +282,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       }
     }
     const GroundPlane* prs = planeOf(rs);
+    const double tan_tilt = std::tan(config_.bridge_tilt_deg * M_PI / 180.0);
     // A cell already next to a segment (touching, or across max_gap_cells) keeps that one
     // contact: a border cell counts once towards num_T.
     const std::size_t main_contacts = contacts_.size();
@@ -307,8 +311,10 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       const int r = segs.segment_of[c];
       const GroundPlane* pr = planeOf(r);
       const double xc = (m.min_u + c % width) * l, yc = (m.min_v + c / width) * l;
+      // SafetyLabellingConfig::bridge_tilt_deg: the footprint's level plane extrapolated d m.
+      const double d = std::hypot(xc - m.robot_u * l, yc - m.robot_v * l);
       const int ok = pr != nullptr && std::abs(prs->heightAt(xc, yc) - pr->heightAt(xc, yc)) <
-                                          config_.max_step_height;
+                                          config_.max_step_height + d * tan_tilt;
       bool any = false;
       for (const int f : bridge_from_) {
         const long long du = c % width - f % width, dv = c / width - f / width;
@@ -420,6 +426,10 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     }
     neighbours_examined_[s] = 1;
   }
+
+  // SafetyLabellingConfig::isolated_ground_unknown: what step 27 would call Non-ground only
+  // because no observed border leads to it.
+  if (config_.isolated_ground_unknown && !to_examine_.empty()) labelIsolatedGround(hm, m, segs);
 
   // SafetyLabellingConfig::small_obstacles: what steps 3-4 left Unknown but stands above the safe
   // ground beside it by more than h_T is the top of an obstacle.
@@ -557,6 +567,141 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     }
   }
   return true;
+}
+
+void SafetyLabelling::labelIsolatedGround(const HeightMap& hm, const SafetyMap& m,
+                                          const GroundSegments& segs) {
+  const int nseg = static_cast<int>(m.segments.size());
+  // Groups of unreached segments joined by borders crossable from either side.
+  group_.assign(nseg, -1);
+  group_blocked_.clear();
+  int groups = 0;
+  for (int k = 0; k < nseg; ++k) {
+    if (seg_state_[k] != kStUnexamined || group_[k] >= 0) continue;
+    const int g = groups++;
+    group_blocked_.push_back(0);
+    group_stack_.assign(1, k);
+    group_[k] = g;
+    while (!group_stack_.empty()) {
+      const int s = group_stack_.back();
+      group_stack_.pop_back();
+      for (int e = edge_begin_[s]; e < edge_begin_[s + 1]; ++e) {
+        const int r = edges_[e].r;
+        if (seg_state_[r] == kStSafe) group_blocked_[g] = 1;  // a border the robot cannot cross
+        if (seg_state_[r] != kStUnexamined || group_[r] >= 0) continue;
+        if (edges_[e].ok > 0 || okCount(r, s) > 0) {
+          group_[r] = g;
+          group_stack_.push_back(r);
+        }
+      }
+    }
+  }
+  if (groups == 0) return;
+  // Borders recorded on the safe side only (the footprint bridge records both, gaps may not).
+  for (int s = 0; s < nseg; ++s) {
+    if (seg_state_[s] != kStSafe) continue;
+    for (int e = edge_begin_[s]; e < edge_begin_[s + 1]; ++e) {
+      const int g = group_[edges_[e].r];
+      if (g >= 0) group_blocked_[g] = 1;
+    }
+  }
+  if (std::all_of(group_blocked_.begin(), group_blocked_.end(), [](std::uint8_t b) { return b; }))
+    return;
+
+  // The nearest safe cell of every cell: propagation of the nearest site in two raster passes
+  // (an 8-neighbour approximation of the Euclidean feature transform).
+  const int width = m.width, height = m.height, n = width * height;
+  nearest_safe_.assign(n, -1);
+  safe_distance_.assign(n, std::numeric_limits<float>::infinity());
+  for (int c = 0; c < n; ++c) {
+    const int k = segs.segment_of[c];
+    if (k >= 0 && k < nseg && seg_state_[k] == kStSafe) {
+      nearest_safe_[c] = c;
+      safe_distance_[c] = 0.0f;
+    }
+  }
+  auto relax = [&](int c, int u, int v, int un, int vn) {
+    if (un < 0 || vn < 0 || un >= width || vn >= height) return;
+    const int src = nearest_safe_[vn * width + un];
+    if (src < 0) return;
+    const float du = static_cast<float>(u - src % width), dv = static_cast<float>(v - src / width);
+    const float d = std::sqrt(du * du + dv * dv);
+    if (d < safe_distance_[c]) {
+      safe_distance_[c] = d;
+      nearest_safe_[c] = src;
+    }
+  };
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const int c = v * width + u;
+      relax(c, u, v, u - 1, v);
+      relax(c, u, v, u - 1, v - 1);
+      relax(c, u, v, u, v - 1);
+      relax(c, u, v, u + 1, v - 1);
+    }
+  }
+  for (int v = height - 1; v >= 0; --v) {
+    for (int u = width - 1; u >= 0; --u) {
+      const int c = v * width + u;
+      relax(c, u, v, u + 1, v);
+      relax(c, u, v, u + 1, v + 1);
+      relax(c, u, v, u, v + 1);
+      relax(c, u, v, u - 1, v + 1);
+    }
+  }
+
+  // A group within max_gap_cells + 2 cells of safe ground borders it across a failed step or
+  // the non-traversable columns of a face (a curb's, a wall's): Non-ground as in 000. Farther
+  // away, it could be reached when one of its cells could be from its nearest safe cell along a
+  // slope of at most theta_max and one step of h_T, over cells of which nothing was seen (a
+  // line that crosses observed columns, the group's own included, is no evidence).
+  const double l = m.resolution;
+  const double tan_max = std::tan(config_.max_slope_deg * M_PI / 180.0);
+  const float near_cells = static_cast<float>(config_.max_gap_cells + 2) + 1e-3f;
+  std::vector<std::uint8_t>& state = group_blocked_;  // 0 Non-ground, 1 Unknown, 2 undecided
+  for (int g = 0; g < groups; ++g)
+    state[g] = state[g] ? 0 : 2;
+  for (int k = 0; k < nseg; ++k) {
+    const int g = group_[k];
+    if (g < 0 || state[g] == 0) continue;
+    for (const int c : m.segments[k].cells) {
+      if (safe_distance_[c] <= near_cells) {
+        state[g] = 0;
+        break;
+      }
+    }
+  }
+  auto openLine = [&](int a, int b) {
+    const int ua = a % width, va = a / width;
+    const int du = b % width - ua, dv = b / width - va;
+    const int steps = std::max(std::abs(du), std::abs(dv));
+    for (int t = 1; t < steps; ++t) {
+      const int ut = ua + static_cast<int>(std::lround(static_cast<double>(du) * t / steps));
+      const int vt = va + static_cast<int>(std::lround(static_cast<double>(dv) * t / steps));
+      if (hm.atIndex(vt * width + ut) != HeightMap::kNoHeight) return false;
+    }
+    return true;
+  };
+  for (int k = 0; k < nseg; ++k) {
+    const int g = group_[k];
+    if (g < 0 || state[g] != 2) continue;
+    const GroundPlane& pk = m.segments[k].plane;
+    for (const int c : m.segments[k].cells) {
+      const int src = nearest_safe_[c];
+      if (src < 0 || !boundary_[c]) continue;
+      const GroundPlane& ps = m.segments[segs.segment_of[src]].plane;
+      const double x = (m.min_u + c % width) * l, y = (m.min_v + c / width) * l;
+      const double xs = (m.min_u + src % width) * l, ys = (m.min_v + src / width) * l;
+      const double dz = std::abs(pk.heightAt(x, y) - ps.heightAt(xs, ys));
+      if (dz <= config_.max_step_height + safe_distance_[c] * l * tan_max && openLine(c, src)) {
+        state[g] = 1;
+        break;
+      }
+    }
+  }
+  for (int k = 0; k < nseg; ++k) {
+    if (group_[k] >= 0 && state[group_[k]] == 1) seg_state_[k] = kStUnknown;
+  }
 }
 
 }  // namespace stereo_safety_map

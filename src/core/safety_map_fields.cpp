@@ -218,6 +218,19 @@ ParamFieldList<M> makeMapperFields() {
           "the robot's footprint and ground this far beyond it with only unobserved cells between "
           "(the camera's blind zone) are neighbours in Alg. 2; h_T and num_T decide (ours; 0 = "
           "off).");
+  l.add("bridge_tilt_deg", &M::labelling, &SafetyLabellingConfig::bridge_tilt_deg)
+      .closed(0, 10)
+      .unit("deg")
+      .doc(
+          "the chassis tilt odometry does not report, allowed for across the footprint bridge: "
+          "its far cell is crossable within h_T + d tan(bridge_tilt_deg) of the footprint's "
+          "level plane, d its distance from the robot (ours; 0 = h_T alone).");
+  l.add("isolated_ground_unknown", &M::labelling, &SafetyLabellingConfig::isolated_ground_unknown)
+      .doc(
+          "ground that is not reached only because no observed border leads to it (no border to "
+          "safe ground, height within h_T + d tan(theta_max) of the nearest safe cell) is Unknown, "
+          "not Non-ground; a failed step or an implausible height keeps Non-ground (ours; false = "
+          "000 Alg. 2 step 27).");
   l.add("drop_off_margin", &M::labelling, &SafetyLabellingConfig::drop_off_margin)
       .doc(
           "border cells of safe segments beside an observed surface lower by more than "

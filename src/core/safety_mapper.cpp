@@ -81,13 +81,15 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.segmentation.footprint_radius = 0.0;   // 000 seeds on observed ground only
   c.labelling.small_obstacles = false;     // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.footprint_bridge = 0.0;
-  c.obstacle_memory = false;               // 000 recomputes the map from the grid
-  c.relevel.enabled = false;               // 000 takes the pose from odometry
-  c.labelling.max_gap_cells = 0;           // 000 Sec. VI: neighbours touch
-  c.labelling.measured_step_test = false;  // 000 Alg. 2 steps 15-17: planes only
-  c.labelling.drop_off_margin = false;     // 000 Sec. VI: annotation only
-  c.plane_fit.vertical_margin = 0;         // 000 Sec. V-B: the segment's own points
-  c.max_cell_age = 0.0;                    // 000 keeps every voxel while in the window
+  c.labelling.bridge_tilt_deg = 0.0;
+  c.labelling.isolated_ground_unknown = false;  // 000 Alg. 2 step 27: unreached is Non-ground
+  c.obstacle_memory = false;                    // 000 recomputes the map from the grid
+  c.relevel.enabled = false;                    // 000 takes the pose from odometry
+  c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
+  c.labelling.measured_step_test = false;       // 000 Alg. 2 steps 15-17: planes only
+  c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
+  c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
+  c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window
   // The look-ahead must stay within the window; 0 centres it on the robot (000 Sec. IV).
   c.grid_look_ahead = 0.0;
   return c;

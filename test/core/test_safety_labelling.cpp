@@ -62,6 +62,7 @@ SafetyLabellingConfig paperLabelling() {
   c.measured_step_test = false;
   c.small_obstacles = false;
   c.footprint_bridge = 0.0;
+  c.isolated_ground_unknown = false;
   return c;
 }
 
@@ -491,6 +492,8 @@ TEST(SafetyLabelling, GapWiderThanTheLimitIsNotBridged) {
   SafetyLabellingConfig c;
   c.max_gap_cells = 2;
   ASSERT_TRUE(w.label(c));
+  // Not reached, and within max_gap_cells + 2 cells of the safe floor: Non-ground, also with
+  // isolated_ground_unknown.
   EXPECT_EQ(w.at(20, 10), L::kNonGround);
   c.max_gap_cells = 3;
   ASSERT_TRUE(w.label(c));
@@ -505,6 +508,52 @@ TEST(SafetyLabelling, DropAcrossAGapStaysNonGround) {
     EXPECT_EQ(w.at(5, 10), L::kLevel);
     EXPECT_EQ(w.at(20, 10), L::kNonGround) << far;
   }
+}
+
+TEST(SafetyLabelling, IsolatedGroundIsUnknownOnlyWhereADrivableSlopeCouldReachIt) {
+  // Far floors beyond gaps wider than max_gap_cells: no border to the safe floor at all.
+  // Level far floor 0.7 m away: Unknown. 0.2 m higher 0.7 m away: 0.05 + 0.7 tan(10 deg) = 0.17
+  // m < 0.2, no drivable slope gets there: Non-ground (an obstacle's top). 0.2 m higher 1.3 m
+  // away: 0.05 + 0.23 > 0.2, a ramp could lead there: Unknown. The paper's rule: all Non-ground.
+  struct Case {
+    int gap;
+    char far;
+    L expected;
+  };
+  for (const Case& k : {Case{6, '0', L::kUnknown}, Case{6, '2', L::kNonGround},
+                        Case{12, '2', L::kUnknown}, Case{6, 'b', L::kNonGround}}) {
+    World w(floorWithGap(k.gap, k.far), 2, 10, 0, islandSegmentation());
+    const int u = 10 + k.gap + 3;
+    ASSERT_NE(w.segAt(u, 10), w.segs.robot_segment);
+    SafetyLabellingConfig c;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(5, 10), L::kLevel);
+    EXPECT_EQ(w.at(u, 10), k.expected) << "gap " << k.gap << " far " << k.far;
+    EXPECT_FALSE(w.map.segments[w.segAt(u, 10)].reachable);
+    c.isolated_ground_unknown = false;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(u, 10), L::kNonGround) << "gap " << k.gap << " far " << k.far;
+  }
+}
+
+TEST(SafetyLabelling, GroundBehindAFailedStepStaysNonGround) {
+  // Floor | a 0.2 m step up (touching: a measured discontinuity) | beyond it, crossable from
+  // the step's top (0.21 m), ground never reached. The group borders safe ground across the
+  // failed step: all of it Non-ground, also the part without a border of its own to the floor.
+  std::vector<std::string> rows = block(30, 20, '0');
+  for (std::string& r : rows) {
+    for (int u = 10; u < 15; ++u)
+      r[u] = '2';
+    for (int u = 15; u < 30; ++u)
+      r[u] = '3';
+  }
+  World w(rows, 2, 10, 0, islandSegmentation());
+  ASSERT_NE(w.segAt(12, 10), w.segAt(20, 10));
+  w.planeAt(20, 10) = horizontal(0.21);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(5, 10), L::kLevel);
+  EXPECT_EQ(w.at(12, 10), L::kNonGround);
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);
 }
 
 TEST(SafetyLabelling, ObservedColumnsBetweenSegmentsAreNoGap) {
@@ -523,7 +572,8 @@ TEST(SafetyLabelling, ObservedColumnsBetweenSegmentsAreNoGap) {
     w.planes.push_back(horizontal(w.segs.segment_height[k] * kLv));
   ASSERT_TRUE(w.label(SafetyLabellingConfig()));
   EXPECT_EQ(w.at(11, 10), L::kNonGround);  // the wall
-  EXPECT_EQ(w.at(20, 10), L::kNonGround);  // unreachable behind it
+  // Unreachable behind it (within max_gap_cells + 2 cells of the floor: not isolated).
+  EXPECT_EQ(w.at(20, 10), L::kNonGround);
 }
 
 // A floor (z = 0) running into an 8.5 deg ramp at u = 6 (z = 0.015 per cell). The floor's band
@@ -695,13 +745,36 @@ TEST(SafetyLabellingFootprintBridge, TheFloorBeyondTheBlindZoneIsReachable) {
   ASSERT_NE(w.segAt(20, 5), w.segs.robot_segment);
   SafetyLabellingConfig c;
   c.footprint_bridge = 0.0;
+  c.isolated_ground_unknown = false;
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(2, 5), L::kLevel);  // the footprint
   EXPECT_EQ(w.at(20, 5), L::kNonGround);
+  c.isolated_ground_unknown = true;  // no border to it at all: Unknown
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(20, 5), L::kUnknown);
   c.footprint_bridge = 1.5;
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(20, 5), L::kLevel);
   EXPECT_EQ(w.at(10, 5), L::kUnknown);  // the blind zone itself
+}
+
+TEST(SafetyLabellingFootprintBridge, AnUnreportedTiltIsAllowedForButAStepIsNot) {
+  // The floor beyond the blind zone (1.2 m and farther from the robot) measured 6.5 cm above
+  // the footprint's level plane, as an unreported 1 deg pitch and the top voxel's noise make it
+  // read: beyond h_T, within h_T + 1.2 m tan(1 deg) = 7.1 cm. A 10 cm step is not.
+  GroundSegmentationConfig sc;
+  for (const double z : {0.065, 0.10}) {
+    World w(blindZone('0'), 2, 5, 0, sc);
+    setSurfaces(&w.hm);
+    w.planeAt(20, 5) = horizontal(z);
+    SafetyLabellingConfig c;
+    c.bridge_tilt_deg = 0.0;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(20, 5), L::kNonGround) << z;
+    c.bridge_tilt_deg = 1.0;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(20, 5), z < 0.07 ? L::kLevel : L::kNonGround) << z;
+  }
 }
 
 TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
@@ -716,6 +789,8 @@ TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
     World w(blindZone('0', '9'), 2, 5, 0, sc);  // a wall across the blind zone at u = 9
     setSurfaces(&w.hm);
     ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+    // Not reached; seen only across the wall's columns: Non-ground also with
+    // isolated_ground_unknown.
     EXPECT_EQ(w.at(20, 5), L::kNonGround);
     EXPECT_FALSE(isSafe(w.at(9, 5)));
   }
@@ -728,7 +803,8 @@ TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
     World w(rows, 2, 5, 0, sc);
     setSurfaces(&w.hm);
     ASSERT_TRUE(w.label(SafetyLabellingConfig()));
-    EXPECT_EQ(w.at(27, 5), L::kNonGround);
+    EXPECT_FALSE(isSafe(w.at(27, 5)));
+    EXPECT_FALSE(w.map.segments[w.segAt(27, 5)].reachable);
   }
 }
 

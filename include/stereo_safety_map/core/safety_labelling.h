@@ -67,6 +67,30 @@ struct SafetyLabellingConfig {
   /// for any border, and the unobserved cells stay Unknown. So an unobserved near field does not
   /// make the whole map unreachable, and a drop or step there still separates. [0, 10] m.
   double footprint_bridge = 1.5;
+  /// [deg], [0, 10]: the chassis tilt that odometry does not report, allowed for across the
+  /// footprint bridge (ours; 0 = h_T alone). The footprint's plane is the base's, level at the
+  /// base's height; a chassis pitched by a degree that the tf does not know (seat load, tyres,
+  /// a mount calibrated a little off) moves the ground seen d m away by d tan(1 deg), 2.6 cm at
+  /// 1.5 m, and the top voxel's points of noisy ground stand above its mean. So the far cell of a
+  /// bridge is crossable when its plane is within h_T + d tan(bridge_tilt_deg) of the footprint's
+  /// (d its distance from the robot's cell). A 10 cm step at 1.5 m still separates.
+  double bridge_tilt_deg = 1.0;
+  /// Ground cut off only by what was not seen is Unknown (ours; false = 000 Alg. 2 step 27,
+  /// where every segment not reached is Non-ground). Stereo sees the ground in patches: a
+  /// low-texture floor between the robot and a ramp 3 m away leaves the ramp with no border to
+  /// any safe segment, and Alg. 2 then calls a drivable ramp an obstacle. With this on, the
+  /// segments not reached are grouped by their crossable borders; a group with no border to a
+  /// safe segment (touching, across max_gap_cells or the footprint bridge) and no cell within
+  /// max_gap_cells + 2 cells of safe ground is Unknown when a boundary cell of it could be
+  /// reached from its nearest safe cell along a drivable slope over cells of which nothing was
+  /// seen: its plane's height there differs from the safe cell's by at most h_T + d
+  /// tan(theta_max) (d the distance between the two) and the straight line between them crosses
+  /// no observed column. A group that borders safe ground across a failed step or a face's
+  /// columns stays Non-ground (a measured discontinuity), and so does one standing higher or
+  /// lower than any drivable slope allows (an obstacle's top seen beyond unobserved floor, a
+  /// lower level) or seen only across observed columns (behind a wall).
+  /// Unknown is never free: the cost table makes it -1 and the gate stops for it.
+  bool isolated_ground_unknown = true;
 
   /// Potential drop-off edges (000, Sec. VI). A boundary cell of a Level / Inclined segment is one
   /// when it has an Unknown 8-neighbour and, within drop_off_radius [m] of its centre, a cell
@@ -125,6 +149,9 @@ class SafetyLabelling {
     float rise;  // the largest rise of s over r along the border (NaN when none measured)
   };
   int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
+  // isolated_ground_unknown, after Alg. 2 steps 5-26: turns the groups of unreached segments
+  // without a border to safe ground that a drivable slope could reach into Unknown.
+  void labelIsolatedGround(const HeightMap& hm, const SafetyMap& m, const GroundSegments& segs);
   // Mean measured surface height of the cells of c's segment within kLocalSurfaceRadius cells
   // of c (NaN when none has points); computed once per cell and label() call.
   float localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c);
@@ -143,6 +170,13 @@ class SafetyLabelling {
   std::vector<int> bridge_to_;           // boundary cells of other segments near the footprint
   std::vector<std::uint8_t> neighbours_examined_;
   std::vector<int> to_examine_;  // L_S of Alg. 2
+  // isolated_ground_unknown: groups of segments not reached, the nearest safe cell of each cell
+  // and its distance [cells] (chamfer transform).
+  std::vector<int> group_;
+  std::vector<std::uint8_t> group_blocked_;
+  std::vector<int> group_stack_;
+  std::vector<int> nearest_safe_;
+  std::vector<float> safe_distance_;
 };
 
 }  // namespace stereo_safety_map
