@@ -104,7 +104,15 @@ int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config,
   }
   DisparityFilterWorkspace local;
   DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
-  detail::textureEnergy(left, config, &ws);
+
+  // Texture energy of the matching window: mean |LoG| of the left image (002, Sec. 2.2).
+  left.convertTo(ws.grey_f, CV_32F);
+  cv::GaussianBlur(ws.grey_f, ws.blurred, cv::Size(), config.log_sigma, config.log_sigma,
+                   cv::BORDER_REPLICATE);
+  cv::Laplacian(ws.blurred, ws.log, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::absdiff(ws.log, cv::Scalar::all(0.0), ws.log);
+  cv::boxFilter(ws.log, ws.energy, CV_32F, cv::Size(config.window_size, config.window_size),
+                cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
 
   const float min_energy = static_cast<float>(config.min_energy);
   int removed = 0;
@@ -120,23 +128,6 @@ int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config,
   }
   return removed;
 }
-
-namespace detail {
-
-void textureEnergy(const cv::Mat& left, const TextureValidationConfig& config,
-                   DisparityFilterWorkspace* workspace) {
-  DisparityFilterWorkspace& ws = *workspace;
-  // Texture energy of the matching window: mean |LoG| of the left image (002, Sec. 2.2).
-  left.convertTo(ws.grey_f, CV_32F);
-  cv::GaussianBlur(ws.grey_f, ws.blurred, cv::Size(), config.log_sigma, config.log_sigma,
-                   cv::BORDER_REPLICATE);
-  cv::Laplacian(ws.blurred, ws.log, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
-  cv::absdiff(ws.log, cv::Scalar::all(0.0), ws.log);
-  cv::boxFilter(ws.log, ws.energy, CV_32F, cv::Size(config.window_size, config.window_size),
-                cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
-}
-
-}  // namespace detail
 
 // ------------------------------------------------------------------------------------------------
 std::string MatchUniquenessConfig::validate() const {
@@ -260,30 +251,10 @@ int filterSpikes(const SpikeRemovalConfig& config, cv::Mat* disparity,
   if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
   DisparityFilterWorkspace local;
   DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
-  // One-pixel invalid border: the flood fill needs no bounds checks.
+
+  // One-pixel invalid border: the flood fill below needs no bounds checks. A pixel is labelled
+  // by negating its value (valid values are > 0, invalid ones are 0), so no label image is needed.
   copyWithInvalidBorder(*disparity, 1, 0, &ws.surface);
-  return detail::spikesPrepared(config, disparity, &ws);
-}
-
-namespace detail {
-
-void prepareSpikeInput(const cv::Size& size, DisparityFilterWorkspace* workspace) {
-  cv::Mat& m = workspace->surface;
-  m.create(size.height + 2, size.width + 2, CV_32FC1);
-  const std::size_t row_bytes = static_cast<std::size_t>(m.cols) * sizeof(float);
-  std::memset(m.ptr<float>(0), 0, row_bytes);
-  std::memset(m.ptr<float>(m.rows - 1), 0, row_bytes);
-  for (int y = 1; y < m.rows - 1; ++y) {
-    float* row = m.ptr<float>(y);
-    row[0] = row[m.cols - 1] = 0.0f;
-  }
-}
-
-int spikesPrepared(const SpikeRemovalConfig& config, cv::Mat* disparity,
-                   DisparityFilterWorkspace* workspace) {
-  DisparityFilterWorkspace& ws = *workspace;
-  // A pixel is labelled by negating its value (valid values are > 0, invalid ones are 0), so no
-  // label image is needed.
   const int stride = ws.surface.cols;
   float* surface = ws.surface.ptr<float>(0);
   const std::size_t capacity = static_cast<std::size_t>(disparity->rows) * disparity->cols;
@@ -327,8 +298,6 @@ int spikesPrepared(const SpikeRemovalConfig& config, cv::Mat* disparity,
   return removed;
 }
 
-}  // namespace detail
-
 // ------------------------------------------------------------------------------------------------
 std::string NeighbourConsistencyConfig::validate() const {
   if (window_radius < 1 || window_radius > 5) {
@@ -348,41 +317,14 @@ int filterInconsistentNeighbours(const NeighbourConsistencyConfig& config, cv::M
   if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
   DisparityFilterWorkspace local;
   DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+
   const int r = config.window_radius;
   const int cols = disparity->cols;
-  // Judged against an untouched copy so that the result does not depend on scan order. Rows are
-  // processed in whole blocks of 8 (the extra columns are invalid padding), which lets the
-  // compiler vectorise the loops even at -O2.
-  copyWithInvalidBorder(*disparity, r, ((cols + 7) & ~7) - cols, &ws.padded);
-  return detail::neighbourConsistencyPrepared(config, disparity, &ws, false);
-}
-
-namespace detail {
-
-void prepareNeighbourInput(const cv::Size& size, int window_radius,
-                           DisparityFilterWorkspace* workspace) {
-  const int r = window_radius;
-  const int cols8 = (size.width + 7) & ~7;
-  cv::Mat& m = workspace->padded;
-  m.create(size.height + 2 * r, cols8 + 2 * r, CV_32FC1);
-  const std::size_t row_bytes = static_cast<std::size_t>(m.cols) * sizeof(float);
-  for (int y = 0; y < r; ++y) {
-    std::memset(m.ptr<float>(y), 0, row_bytes);
-    std::memset(m.ptr<float>(m.rows - 1 - y), 0, row_bytes);
-  }
-  for (int y = r; y < m.rows - r; ++y) {
-    float* row = m.ptr<float>(y);
-    std::fill(row, row + r, 0.0f);
-    std::fill(row + r + size.width, row + m.cols, 0.0f);
-  }
-}
-
-int neighbourConsistencyPrepared(const NeighbourConsistencyConfig& config, cv::Mat* disparity,
-                                 DisparityFilterWorkspace* workspace, bool spike_input) {
-  DisparityFilterWorkspace& ws = *workspace;
-  const int r = config.window_radius;
-  const int cols = disparity->cols;
+  // Rows are processed in whole blocks of 8 (the extra columns are invalid padding), which lets
+  // the compiler vectorise the loops below even at -O2.
   const int cols8 = (cols + 7) & ~7;
+  // Judged against an untouched copy so that the result does not depend on scan order.
+  copyWithInvalidBorder(*disparity, r, cols8 - cols, &ws.padded);
   ws.valid_count.resize(static_cast<std::size_t>(cols8));
   ws.agree_count.resize(static_cast<std::size_t>(cols8));
   float* valid_count = ws.valid_count.data();
@@ -416,16 +358,8 @@ int neighbourConsistencyPrepared(const NeighbourConsistencyConfig& config, cv::M
         ++removed;
       }
     }
-    // The output row, sanitised (centre is), is the spike removal's input row.
-    if (spike_input) {
-      float* next = spikeInputRow(&ws, y);
-      for (int x = 0; x < cols; ++x)
-        next[x] = out[x] > 0.0f ? centre[x] : 0.0f;
-    }
   }
   return removed;
 }
-
-}  // namespace detail
 
 }  // namespace stereo_safety_map

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <exception>
 #include <limits>
 #include <sstream>
@@ -215,10 +214,7 @@ DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineCo
 
 cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
                                                             int uniqueness_ratio) {
-  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match. OpenCV's
-  // own (disp12MaxDiff = 1, the left match's winners competing for a right pixel) is not
-  // equivalent: measured over the five datasets (issue 18) it keeps 7 - 40 % more pixels and the
-  // map's FP rate rises from 7.3 to 9.3 % (decr 1), FN from 1.9 to 2.6 % (decr 3).
+  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match.
   if (k.type == StereoMatcherType::kSemiGlobal) {
     return cv::StereoSGBM::create(
         k.min_disparity, k.num_disparities, k.block_size, k.p1, k.p2, -1, k.pre_filter_cap,
@@ -299,99 +295,12 @@ void DisparityPipeline::matchRightToLeft(const cv::Mat& left_grey, const cv::Mat
   replicateLeftColumns<std::uint8_t>(pad, &mirrored_left_);
   replicateLeftColumns<std::uint8_t>(pad, &mirrored_right_);
   right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
-  right_pad_ = pad;
-  right_ran_ = true;
-  right_converted_ = false;  // rightDisparity() converts on demand; the check reads raw values
-  // Valid right-to-left disparities: > 0 once converted (as convertMatcherOutput()).
-  int valid = 0;
-  for (int y = 0; y < size.height; ++y) {
-    const std::int16_t* raw = raw_mirrored_.ptr<std::int16_t>(y) + pad;
-    for (int x = 0; x < w; ++x)
-      valid += raw[x] > 0 ? 1 : 0;
-  }
+  cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
+  convertMatcherOutput(raw_right_, &right_disparity_);
   stats->ran = true;
   stats->valid_before = 0;
-  stats->valid_after = valid;
+  stats->valid_after = cv::countNonZero(right_disparity_);
   stats->ms = msSince(t);
-}
-
-const cv::Mat& DisparityPipeline::rightDisparity() const {
-  if (!right_ran_) return empty_;
-  if (!right_converted_) {
-    const int w = raw_mirrored_.cols - right_pad_;
-    cv::flip(raw_mirrored_.colRange(right_pad_, right_pad_ + w), raw_right_, 1);
-    convertMatcherOutput(raw_right_, &right_disparity_);
-    right_converted_ = true;
-  }
-  return right_disparity_;
-}
-
-// Steps 1 (the matcher's output in pixels), 2 (texture test, 002 Sec. 2.2) and 3 (left-right
-// check, 002 Sec. 4.1 ref. [7]) in one pass over the image (issue 18), each pixel going through
-// them in the sequential order, and the result written straight into the input buffer of the
-// next filter (neighbour consistency or spike removal) when one runs. The arithmetic is that of
-// convertMatcherOutput(), filterLowTexture() and filterLeftRightInconsistent(): bit for bit the
-// same output (test_disparity_reference). The right-to-left disparity is read from the mirrored
-// matcher output: right pixel x_r is column pad + w - 1 - x_r there.
-void DisparityPipeline::fusedFirstSteps(bool texture, bool left_right, int next_filter,
-                                        cv::Mat* disparity, FusedCounts* counts) {
-  const int rows = raw_.rows, cols = raw_.cols;
-  disparity->create(rows, cols, CV_32FC1);
-  const float scale = 1.0f / static_cast<float>(cv::StereoMatcher::DISP_SCALE);
-  const float min_energy = static_cast<float>(config_.texture.min_energy);
-  const float tolerance = static_cast<float>(config_.left_right.max_difference);
-  const bool reject_if_right_invalid = config_.left_right.reject_if_right_invalid;
-  const int r = config_.neighbour_consistency.window_radius;
-  int matched = 0, removed_texture = 0, removed_left_right = 0;
-  for (int y = 0; y < rows; ++y) {
-    const std::int16_t* raw = raw_.ptr<std::int16_t>(y);
-    const float* energy = texture ? workspace_.energy.ptr<float>(y) : nullptr;
-    // Right pixel x_r of this row at right[-x_r].
-    const std::int16_t* right =
-        left_right ? raw_mirrored_.ptr<std::int16_t>(y) + right_pad_ + cols - 1 : nullptr;
-    float* out = disparity->ptr<float>(y);
-    float* next = next_filter == 1   ? detail::neighbourInputRow(&workspace_, r, y)
-                  : next_filter == 2 ? detail::spikeInputRow(&workspace_, y)
-                                     : out;
-    // Branches, not masks: valid, low-texture and inconsistent pixels come in runs (borders,
-    // flat regions, occlusions), so they are predicted well, and the left-right check is
-    // skipped where the texture test already removed the pixel (measured: faster than
-    // branch-free on the benchmark datasets).
-    for (int x = 0; x < cols; ++x) {
-      float d = static_cast<float>(raw[x]) * scale;
-      if (d > 0.0f) {
-        ++matched;
-        if (texture && energy[x] < min_energy) {
-          d = kInvalidDisparity;
-          ++removed_texture;
-        } else if (left_right) {
-          // x_r = floor(x - d + 0.5) as filterLeftRightInconsistent() has it, inline (std::floor
-          // is a library call without SSE4.1): |x - d + 0.5| < 2^31 since d <= 2048 (16-bit
-          // fixed point). For d > 0, x_r <= x; x_r < 0 lies outside the right image, where
-          // nothing confirms the match.
-          const float v = static_cast<float>(x) - d + 0.5f;
-          int xr = static_cast<int>(v);
-          xr -= static_cast<float>(xr) > v ? 1 : 0;
-          bool reject = true;
-          if (xr >= 0) {
-            const float dr = static_cast<float>(right[-xr]) * scale;
-            reject = dr > 0.0f ? std::fabs(d - dr) > tolerance : reject_if_right_invalid;
-          }
-          if (reject) {
-            d = kInvalidDisparity;
-            ++removed_left_right;
-          }
-        }
-      } else {
-        d = kInvalidDisparity;
-      }
-      out[x] = d;
-      next[x] = d;
-    }
-  }
-  counts->matched = matched;
-  counts->removed_texture = removed_texture;
-  counts->removed_left_right = removed_left_right;
 }
 
 void DisparityPipeline::matchRightToLeftTask(void* self) {
@@ -506,9 +415,8 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // --- 3 (started early). The right-to-left matcher of the left-right check, on the helper
     // thread while this one runs steps 1 and 2. Every path out of this block waits for it: it
     // reads the grey images and writes the right-to-left buffers.
-    right_ran_ = false;  // the buffer itself is kept: no allocation per frame
-    const bool full_left_right = config_.enable_left_right;
-    const bool parallel = full_left_right && config_.parallel_left_right;
+    right_disparity_.release();
+    const bool parallel = config_.enable_left_right && config_.parallel_left_right;
     struct Join {
       detail::TaskThread* task;
       ~Join() {
@@ -528,102 +436,11 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     cv::Mat& disparity = *disparity_out;
     Clock::time_point t = Clock::now();
     left_matcher_->compute(*left_grey, *right_grey, raw_);
+    convertMatcherOutput(raw_, &disparity);
+    int valid = cv::countNonZero(disparity);
     DisparityStepStats& match = st.step(DisparityStep::kMatching);
     match.ran = true;
     match.valid_before = st.pixels;
-
-    if (!config_.debug) {
-      // Issue 18: the same steps as below, without a full pass over the image per step. The
-      // matcher's output is converted, texture-tested and left-right-checked in one pass
-      // (fusedFirstSteps) that writes straight into the next filter's input buffer; the
-      // neighbour filter writes the spike removal's input as it goes. Bit for bit the output
-      // and the counts of the sequential steps (test_disparity_reference); step times: the
-      // fused pass counts under the left-right check (under texture when that is off).
-      match.ms = msSince(t);
-      const bool texture = config_.enable_texture;
-      const bool neighbours = config_.enable_neighbour_consistency;
-      const bool spikes = config_.enable_spike_removal;
-      DisparityStepStats& tex = st.step(DisparityStep::kTexture);
-      if (texture) {
-        t = Clock::now();
-        detail::textureEnergy(*left_grey, config_.texture, &workspace_);
-        tex.ms = msSince(t);
-      }
-      if (full_left_right) {
-        DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
-        if (parallel) {
-          task_.wait();
-          join.task = nullptr;
-          if (right_failed_) return fail(right_error_);
-          rm = task_stats_;
-        } else {
-          matchRightToLeft(*left_grey, *right_grey, &rm);
-        }
-      }
-      t = Clock::now();
-      if (neighbours) {
-        detail::prepareNeighbourInput(size, config_.neighbour_consistency.window_radius,
-                                      &workspace_);
-      }
-      if (spikes) detail::prepareSpikeInput(size, &workspace_);
-      FusedCounts counts;
-      fusedFirstSteps(texture, full_left_right,
-                      neighbours ? 1
-                      : spikes   ? 2
-                                 : 0,
-                      &disparity, &counts);
-      const double fused_ms = msSince(t);
-      int valid = counts.matched;
-      match.valid_after = valid;
-      if (texture) {
-        tex.ran = true;
-        tex.valid_before = valid;
-        valid -= counts.removed_texture;
-        tex.valid_after = valid;
-        if (!full_left_right) tex.ms += fused_ms;
-      }
-      if (full_left_right) {
-        DisparityStepStats& lr = st.step(DisparityStep::kLeftRight);
-        lr.ran = true;
-        lr.valid_before = valid;
-        valid -= counts.removed_left_right;
-        lr.valid_after = valid;
-        lr.ms = fused_ms;
-      }
-      if (!texture && !full_left_right) match.ms += fused_ms;
-      // --- 4. readings unlike their neighbours (000, Sec. III).
-      if (neighbours) {
-        DisparityStepStats& nb = st.step(DisparityStep::kNeighbourConsistency);
-        t = Clock::now();
-        const int removed = detail::neighbourConsistencyPrepared(config_.neighbour_consistency,
-                                                                 &disparity, &workspace_, spikes);
-        nb.ran = true;
-        nb.ms = msSince(t);
-        nb.valid_before = valid;
-        valid -= removed;
-        nb.valid_after = valid;
-      }
-      // --- 5. spike removal by disparity-surface segmentation (002, Sec. 4.2).
-      if (spikes) {
-        DisparityStepStats& sp = st.step(DisparityStep::kSpikeRemoval);
-        t = Clock::now();
-        const int removed = detail::spikesPrepared(config_.spike_removal, &disparity, &workspace_);
-        sp.ran = true;
-        sp.ms = msSince(t);
-        sp.valid_before = valid;
-        valid -= removed;
-        sp.valid_after = valid;
-      }
-      st.valid = valid;
-      removal_.release();
-      debug_image_.release();
-      st.total_ms = msSince(start);
-      return true;
-    }
-
-    // Debug mode: one step after the other, so that each pixel's removal can be attributed.
-    convertMatcherOutput(raw_, &disparity);
-    int valid = cv::countNonZero(disparity);
     match.valid_after = valid;
     match.ms = msSince(t);
 
@@ -679,7 +496,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     }
 
     // --- 3. left-right consistency (002 Sec. 4.1, ref. [7]) against the right-to-left match.
-    if (full_left_right) {
+    if (config_.enable_left_right) {
       DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
       if (parallel) {
         task_.wait();
@@ -691,7 +508,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       }
 
       if (!run_step(DisparityStep::kLeftRight, DisparityRemoval::kLeftRight, [&] {
-            return filterLeftRightInconsistent(rightDisparity(), config_.left_right, &disparity);
+            return filterLeftRightInconsistent(right_disparity_, config_.left_right, &disparity);
           })) {
         return fail("left-right check rejected its input");
       }

@@ -154,40 +154,4 @@ struct NeighbourConsistencyConfig {
 int filterInconsistentNeighbours(const NeighbourConsistencyConfig& config, cv::Mat* disparity,
                                  DisparityFilterWorkspace* workspace = nullptr);
 
-// ------------------------------------------------------------------------------------------------
-/// Building blocks of the filters above, for DisparityPipeline's fused pass (issue 18): the same
-/// arithmetic, split where the pipeline writes a filter's input buffer itself instead of copying
-/// the disparity image into it. No checks: configs valid, images CV_32FC1, buffers prepared.
-namespace detail {
-
-/// Texture energy of filterLowTexture into workspace->energy: window mean of |LoG| (002 Sec. 2.2).
-void textureEnergy(const cv::Mat& left, const TextureValidationConfig& config,
-                   DisparityFilterWorkspace* workspace);
-
-/// Prepares workspace->padded for neighbourConsistencyPadded(): size, zero border. The caller
-/// then writes row y of the (sanitised) input at neighbourInputRow(workspace, r, y).
-void prepareNeighbourInput(const cv::Size& size, int window_radius,
-                           DisparityFilterWorkspace* workspace);
-inline float* neighbourInputRow(DisparityFilterWorkspace* workspace, int window_radius, int y) {
-  return workspace->padded.ptr<float>(y + window_radius) + window_radius;
-}
-
-/// Prepares workspace->surface for spikesPrepared() (size, zero border); the caller writes row y
-/// of the (sanitised) input at spikeInputRow(workspace, y).
-void prepareSpikeInput(const cv::Size& size, DisparityFilterWorkspace* workspace);
-inline float* spikeInputRow(DisparityFilterWorkspace* workspace, int y) {
-  return workspace->surface.ptr<float>(y + 1) + 1;
-}
-
-/// filterInconsistentNeighbours() on the prepared workspace->padded; when `spike_input` is true
-/// it also writes each output row into the spike removal's input (prepareSpikeInput() first).
-int neighbourConsistencyPrepared(const NeighbourConsistencyConfig& config, cv::Mat* disparity,
-                                 DisparityFilterWorkspace* workspace, bool spike_input);
-
-/// filterSpikes() on the prepared workspace->surface.
-int spikesPrepared(const SpikeRemovalConfig& config, cv::Mat* disparity,
-                   DisparityFilterWorkspace* workspace);
-
-}  // namespace detail
-
 }  // namespace stereo_safety_map

@@ -173,8 +173,8 @@ class DisparityPipeline {
   const cv::Mat& debugImage() const { return debug_image_; }
 
   /// Right-to-left disparity of the last compute() (right-image pixels), when the left-right
-  /// check ran with a right-to-left matcher; else empty.
-  const cv::Mat& rightDisparity() const;
+  /// check ran; else empty.
+  const cv::Mat& rightDisparity() const { return right_disparity_; }
 
   /// How many times the matchers were (re)built; for checking the cache.
   int matcherBuilds() const { return matcher_builds_; }
@@ -199,13 +199,6 @@ class DisparityPipeline {
   void matchRightToLeft(const cv::Mat& left_grey, const cv::Mat& right_grey,
                         DisparityStepStats* stats);
   static void matchRightToLeftTask(void* self);
-  struct FusedCounts {
-    int matched = 0, removed_texture = 0, removed_left_right = 0;
-  };
-  // next_filter: 0 none, 1 neighbour consistency (workspace_.padded), 2 spike removal
-  // (workspace_.surface).
-  void fusedFirstSteps(bool texture, bool left_right, int next_filter, cv::Mat* disparity,
-                       FusedCounts* counts);
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
   void renderDebugImage(const cv::Mat& disparity);
 
@@ -220,12 +213,8 @@ class DisparityPipeline {
   cv::Mat left_grey_, right_grey_;
   cv::Mat raw_;                             ///< CV_16S matcher output (1/16 px)
   cv::Mat mirrored_left_, mirrored_right_;  ///< mirrored, padded pair for right-to-left
-  cv::Mat raw_mirrored_;
-  int right_pad_ = 0;       ///< columns of padding on the left of raw_mirrored_
-  bool right_ran_ = false;  ///< raw_mirrored_ belongs to the last compute()
-  mutable cv::Mat raw_right_, right_disparity_;  ///< rightDisparity(), converted on demand
-  mutable bool right_converted_ = false;
-  cv::Mat empty_;
+  cv::Mat raw_mirrored_, raw_right_;
+  cv::Mat right_disparity_;
   cv::Mat plain_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
