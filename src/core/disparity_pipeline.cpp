@@ -214,7 +214,11 @@ DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineCo
 
 cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
                                                             int uniqueness_ratio) {
-  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match.
+  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match. OpenCV's
+  // own (disp12MaxDiff = 1: the left match's winners competing for a right pixel) costs almost
+  // nothing but is not equivalent: measured on the five datasets (issue 18) it keeps 7 - 40 %
+  // more pixels per frame and the map's FP rate rises from 7.3 to 9.3 % (decr 1), FN from 1.9
+  // to 2.6 % (decr 3).
   if (k.type == StereoMatcherType::kSemiGlobal) {
     return cv::StereoSGBM::create(
         k.min_disparity, k.num_disparities, k.block_size, k.p1, k.p2, -1, k.pre_filter_cap,
@@ -297,6 +301,7 @@ void DisparityPipeline::matchRightToLeft(const cv::Mat& left_grey, const cv::Mat
   right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
   cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
   convertMatcherOutput(raw_right_, &right_disparity_);
+  right_ran_ = true;
   stats->ran = true;
   stats->valid_before = 0;
   stats->valid_after = cv::countNonZero(right_disparity_);
@@ -415,7 +420,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // --- 3 (started early). The right-to-left matcher of the left-right check, on the helper
     // thread while this one runs steps 1 and 2. Every path out of this block waits for it: it
     // reads the grey images and writes the right-to-left buffers.
-    right_disparity_.release();
+    right_ran_ = false;  // the buffer itself is kept: no allocation per frame
     const bool parallel = config_.enable_left_right && config_.parallel_left_right;
     struct Join {
       detail::TaskThread* task;

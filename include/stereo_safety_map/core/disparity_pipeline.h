@@ -174,7 +174,7 @@ class DisparityPipeline {
 
   /// Right-to-left disparity of the last compute() (right-image pixels), when the left-right
   /// check ran; else empty.
-  const cv::Mat& rightDisparity() const { return right_disparity_; }
+  const cv::Mat& rightDisparity() const { return right_ran_ ? right_disparity_ : empty_; }
 
   /// How many times the matchers were (re)built; for checking the cache.
   int matcherBuilds() const { return matcher_builds_; }
@@ -215,6 +215,8 @@ class DisparityPipeline {
   cv::Mat mirrored_left_, mirrored_right_;  ///< mirrored, padded pair for right-to-left
   cv::Mat raw_mirrored_, raw_right_;
   cv::Mat right_disparity_;
+  bool right_ran_ = false;  ///< right_disparity_ belongs to the last compute()
+  cv::Mat empty_;
   cv::Mat plain_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
