@@ -22,11 +22,6 @@ namespace {
 constexpr double kWatchdogPeriod = 0.05;  // [s] of ROS time
 constexpr double kRateWindow = 2.0;       // [s] wall, for the rates in /diagnostics
 
-bool zero(const geometry_msgs::Twist& t) {
-  return t.linear.x == 0.0 && t.linear.y == 0.0 && t.linear.z == 0.0 && t.angular.x == 0.0 &&
-         t.angular.y == 0.0 && t.angular.z == 0.0;
-}
-
 bool finite(const geometry_msgs::Twist& t) {
   return std::isfinite(t.linear.x) && std::isfinite(t.linear.y) && std::isfinite(t.linear.z) &&
          std::isfinite(t.angular.x) && std::isfinite(t.angular.y) && std::isfinite(t.angular.z);
