@@ -304,7 +304,11 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       }
       return true;
     };
-    // For each far boundary cell: does it see the footprint, crossably (h_T at the far cell)?
+    // For each far boundary cell: does it see the footprint, crossably? The two planes differ
+    // by an affine function along the straight line from a footprint cell f to the far cell c:
+    // the ground can run on without a step when they meet on it (the difference changes sign,
+    // e.g. a ramp that starts in the blind zone) or differ by less than the tolerance at one
+    // end (at c: 000's test at the far cell; at f: the far plane carried back to the footprint).
     // For each footprint boundary cell: which segments does it see, crossably?
     std::vector<std::pair<int, int>> seen;  // (footprint cell, segment) with its best ok
     for (const int c : bridge_to_) {
@@ -313,15 +317,24 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       const double xc = (m.min_u + c % width) * l, yc = (m.min_v + c / width) * l;
       // SafetyLabellingConfig::bridge_tilt_deg: the footprint's level plane extrapolated d m.
       const double d = std::hypot(xc - m.robot_u * l, yc - m.robot_v * l);
-      const int ok = pr != nullptr && std::abs(prs->heightAt(xc, yc) - pr->heightAt(xc, yc)) <
-                                          config_.max_step_height + d * tan_tilt;
+      const double tolerance = config_.max_step_height + d * tan_tilt;
+      const double dz_c = pr != nullptr ? pr->heightAt(xc, yc) - prs->heightAt(xc, yc) : 0.0;
+      int ok = 0;
       bool any = false;
       for (const int f : bridge_from_) {
         const long long du = c % width - f % width, dv = c / width - f / width;
         if (du * du + dv * dv > reach2 || std::max(std::llabs(du), std::llabs(dv)) < 2) continue;
         if (!open(f, c)) continue;
         any = true;
-        seen.emplace_back(f, ok ? r : -1 - r);
+        int pair_ok = 0;
+        if (pr != nullptr) {
+          const double xf = (m.min_u + f % width) * l, yf = (m.min_v + f / width) * l;
+          const double dz_f = pr->heightAt(xf, yf) - prs->heightAt(xf, yf);
+          pair_ok = std::abs(dz_c) < tolerance || std::abs(dz_f) < tolerance ||
+                    (dz_c > 0.0) != (dz_f > 0.0);
+        }
+        ok = ok || pair_ok;
+        seen.emplace_back(f, pair_ok ? r : -1 - r);
       }
       if (any && !hasContact(c, r, rs)) {
         contacts_.push_back(Contact{r, rs, ok, std::numeric_limits<float>::quiet_NaN(), c});

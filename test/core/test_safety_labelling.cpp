@@ -777,6 +777,24 @@ TEST(SafetyLabellingFootprintBridge, AnUnreportedTiltIsAllowedForButAStepIsNot) 
   }
 }
 
+TEST(SafetyLabellingFootprintBridge, ARampThatStartsInTheBlindZoneIsReachable) {
+  // An 8 deg ramp rising from x = 0.8 m, in the blind zone: at its first observed cells (x =
+  // 1.4 m) it is 8.4 cm up, beyond h_T + 1.2 m tan(1 deg); carried back to the footprint it
+  // meets the floor. The planes meet on the line between them: the ground runs on, Inclined.
+  // A platform 10 cm up whose plane is level never meets the floor (the tilt test above).
+  GroundSegmentationConfig sc;
+  World w(blindZone('0'), 2, 5, 0, sc);
+  setSurfaces(&w.hm);
+  w.planeAt(20, 5) = inclined(8.0, 0.8, 0.0);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(20, 5), L::kInclined);
+  EXPECT_TRUE(w.map.segments[w.segAt(20, 5)].reachable);
+  // The same ramp starting 20 cm up (a curb onto the ramp): not crossable.
+  w.planeAt(20, 5) = inclined(8.0, 0.8, 0.20);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(20, 5), L::kNonGround);
+}
+
 TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
   GroundSegmentationConfig sc;
   {
