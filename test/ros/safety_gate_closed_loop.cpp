@@ -284,7 +284,12 @@ Result GateClosedLoop::run(const std::string& scene_name, double goal, double ma
       stereo_scene::toMsg(head.baseToLeftOptical(), kBase, kOptical);
   cam.header.stamp = now_;
   static_tf_->sendTransform(cam);
+  // The first scene may start before the manager has loaded the nodelet (wall-time wait).
   std_srvs::Empty reset;
+  if (!ros::service::waitForService("/safety_map/reset", ros::Duration(60.0))) {
+    ADD_FAILURE() << "/safety_map/reset never came up";
+    return r;
+  }
   EXPECT_TRUE(ros::service::call("/safety_map/reset", reset));
 
   std::ofstream csv;
