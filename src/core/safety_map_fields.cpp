@@ -381,6 +381,28 @@ ParamFieldList<L> makeLandmarkFields() {
   return l;
 }
 
+ParamFieldList<RowGapFillConfig> makeRowGapFillFields() {
+  using G = RowGapFillConfig;
+  ParamFieldList<G> l;
+  l.section("Reprojection");
+  l.add("row_gap_fill", &G::enabled)
+      .doc(
+          "fill the gap between two valid disparities of an image row that agree, on the "
+          "safety map's copy of the disparity (low-texture floors; ours, false = 000).");
+  l.add("row_gap_fill_max_width", &G::max_width)
+      .openClosed(0, 10)
+      .unit("m")
+      .doc("widest gap filled, at the gap's depth (ours).");
+  l.add("row_gap_fill_max_step", &G::max_step)
+      .openClosed(0, 4)
+      .unit("px")
+      .doc(
+          "largest disparity difference across a filled gap: a 5 cm step at 8 m is > 0.3 px "
+          "with the 0.12 m head (ours).");
+  l.setValidator([](const G& c) { return c.validate(); });
+  return l;
+}
+
 ParamFieldList<StereoFrameProcessorConfig> makeProcessorFields() {
   using P = StereoFrameProcessorConfig;
   ParamFieldList<P> l;
@@ -389,6 +411,7 @@ ParamFieldList<StereoFrameProcessorConfig> makeProcessorFields() {
   l.add("disparity_step", &P::disparity_step)
       .closed(1, 16)
       .doc("use every n-th pixel in rows and columns.");
+  l.include(rowGapFillFields(), &P::row_gap_fill);
   l.include(landmarkStreamFields(), &P::landmark_filter);
   l.include(disparityPipelineFields(), &P::disparity);
   l.setValidator([](const P& c) { return c.validate(); });
@@ -396,6 +419,11 @@ ParamFieldList<StereoFrameProcessorConfig> makeProcessorFields() {
 }
 
 }  // namespace
+
+const ParamFieldList<RowGapFillConfig>& rowGapFillFields() {
+  static const ParamFieldList<RowGapFillConfig> l = makeRowGapFillFields();
+  return l;
+}
 
 const ParamFieldList<SafetyMapperConfig>& safetyMapperFields() {
   static const ParamFieldList<SafetyMapperConfig> list = makeMapperFields();

@@ -38,6 +38,8 @@ std::string StereoFrameProcessorConfig::validate() const {
   if (!err.empty()) return "landmark_filter." + err;
   err = cue.validate();
   if (!err.empty()) return "cue." + err;
+  err = row_gap_fill.validate();
+  if (!err.empty()) return err;
   if (disparity_step < 1 || disparity_step > 16) {
     std::ostringstream os;
     os << "disparity_step = " << disparity_step << " must be in [1, 16]";
@@ -62,6 +64,15 @@ StereoFrameProcessor::StereoFrameProcessor(const StereoFrameProcessorConfig& con
       mapper_(config_.mapper),
       landmarks_(config_.landmark_filter.forMapper(config_.mapper)) {
   if (config_.obstacle_cue) cue_ = std::make_unique<ObstacleCueFusion>(config_.cue);
+}
+
+const cv::Mat& StereoFrameProcessor::gapFilled(const cv::Mat& disparity,
+                                               const StereoCameraModel& camera,
+                                               StereoFrameResult* r) {
+  if (!config_.row_gap_fill.enabled) return disparity;
+  disparity.copyTo(filled_);  // reuses filled_'s buffer when the size is the same
+  r->gap_filled = fillRowGaps(config_.row_gap_fill, camera, &filled_, &fill_above_);
+  return filled_;
 }
 
 void StereoFrameProcessor::reset() {
@@ -135,8 +146,9 @@ bool StereoFrameProcessor::processImages(const cv::Mat& left, const cv::Mat& rig
       camera, pipeline_.config().min_disparity, pipeline_.config().num_disparities);
   throughDisparityMessage(g, &disparity_);
   disparity_camera_ = messageCameraModel(g, camera);
-  reprojectDisparity(disparity_, disparity_camera_, mapper_.config().grid.min_range,
-                     mapper_.config().grid.max_range, config_.disparity_step, &points_);
+  reprojectDisparity(gapFilled(disparity_, disparity_camera_, &r), disparity_camera_,
+                     mapper_.config().grid.min_range, mapper_.config().grid.max_range,
+                     config_.disparity_step, &points_);
   r.timings.reproject_ms = msSince(t1);
   const bool ok =
       integrate(&disparity_camera_, T_fixed_sensor, robot_base_position, stamp, &r, error);
@@ -166,7 +178,7 @@ bool StereoFrameProcessor::processDisparity(const cv::Mat& disparity,
   }
   if (disparity.data != disparity_.data) disparity_.release();
   // The grid's depth range (000 Sec. IV ignores points outside it anyway).
-  reprojectDisparity(disparity, camera, mapper_.config().grid.min_range,
+  reprojectDisparity(gapFilled(disparity, camera, &r), camera, mapper_.config().grid.min_range,
                      mapper_.config().grid.max_range, config_.disparity_step, &points_);
   r.timings.reproject_ms = msSince(t0);
   const bool ok = integrate(&camera, T_fixed_sensor, robot_base_position, stamp, &r, error);

@@ -32,6 +32,8 @@ std::string SafetyMapRosConfig::validate() const {
     os << "tf_timeout = " << tf_timeout << ", must be in [0, 10] s";
   } else if (disparity_step < 1 || disparity_step > 16) {
     os << "disparity_step = " << disparity_step << ", must be in [1, 16]";
+  } else if (!row_gap_fill.validate().empty()) {
+    os << row_gap_fill.validate();
   } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
     os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
   } else if (save_directory.empty() || save_directory.front() != '/') {
@@ -133,6 +135,7 @@ const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
             "default prefix of `~save` (<prefix>.bt, .pgm, .yaml and _labels.png), relative to "
             "save_directory.");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.include(rowGapFillFields(), &R::row_gap_fill);  // section "Reprojection"
     l.section("Cost table of `safety_map` (core/map_costs.h; Non-ground 100, Unknown -1 fixed)");
     l.add("cost_level", &R::costs, &CostTable::level)
         .closed(0, 99)

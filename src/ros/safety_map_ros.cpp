@@ -127,6 +127,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   StereoFrameProcessorConfig processor_config;
   processor_config.mapper = mapper_config_;
   processor_config.disparity_step = ros_config_.disparity_step;
+  processor_config.row_gap_fill = ros_config_.row_gap_fill;
   processor_config.landmark_filter = landmark_config_;
   processor_config.obstacle_cue = cue_config_.enabled;
   processor_config.cue = cue_config_.cue;

@@ -134,6 +134,7 @@ std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessor
   if (name == "default") return "";
   if (name == "paper") {
     v->config.mapper = ssm::paperFaithful(base.mapper);
+    v->config.row_gap_fill.enabled = false;  // the processor's "(ours)" switch
     return "";
   }
   if (name == "no_margin") {

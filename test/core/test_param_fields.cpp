@@ -249,6 +249,8 @@ TEST(CoreFieldLists, TheOfflineListIsTheNodeletsCoreLists) {
   // loadCoreParams / setCoreParam read what the two nodelets read into the core.
   std::vector<std::string> expected = ssm::safetyMapperFields().names();
   expected.push_back("disparity_step");
+  for (const std::string& n : ssm::rowGapFillFields().names())
+    expected.push_back(n);
   for (const std::string& n : ssm::landmarkStreamFields().names())
     expected.push_back(n);
   for (const std::string& n : ssm::disparityPipelineFields().names())

@@ -131,6 +131,43 @@ TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationar
   EXPECT_EQ(p.mapper().framesIntegrated(), 0u);
 }
 
+// Row gap fill (disparity_gap_fill.h): a floor seen only on its joints (every 24th column, 3 px
+// wide, as a tiled floor without texture gives a block matcher) leaves most of the map Unknown;
+// with the fill on the floor between the joints is found, on the map's copy only.
+TEST(StereoFrameProcessor, RowGapFillFindsTheFloorBetweenItsJoints) {
+  const ds::StereoHeadConfig head = smallHead();
+  cv::Mat joints = floorDisparity(head);
+  for (int x = 0; x < joints.cols; ++x)
+    if (x % 24 >= 3) joints.col(x).setTo(cv::Scalar(0.0f));
+  const cv::Mat input = joints.clone();
+  auto levelCells = [](const SafetyMap& m) {
+    int n = 0;
+    for (int v = m.min_v; v < m.min_v + m.height; ++v)
+      for (int u = m.min_u; u < m.min_u + m.width; ++u)
+        n += m.labelAt(u, v) == SafetyLabel::kLevel;
+    return n;
+  };
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  StereoFrameProcessorConfig c;
+  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
+  StereoFrameProcessor off(c);
+  c.row_gap_fill.enabled = true;
+  StereoFrameProcessor on(c);
+  StereoFrameResult r_off, r_on;
+  std::string err;
+  ASSERT_TRUE(off.processDisparity(joints, cameraOf(head), T, Eigen::Vector3f::Zero(), kNoStamp,
+                                   &r_off, &err))
+      << err;
+  ASSERT_TRUE(on.processDisparity(joints, cameraOf(head), T, Eigen::Vector3f::Zero(), kNoStamp,
+                                  &r_on, &err))
+      << err;
+  EXPECT_EQ(r_off.gap_filled, 0);
+  EXPECT_GT(r_on.gap_filled, 0);
+  EXPECT_GT(r_on.points, 3 * r_off.points);
+  EXPECT_EQ(cv::countNonZero(joints != input), 0);  // the caller's disparity is not touched
+  EXPECT_GT(levelCells(on.mapper().safetyMap()), levelCells(off.mapper().safetyMap()) * 3 / 2);
+}
+
 // 001 Sec. 4.2 in front of the grid: a blob of mismatched pixels that appears in one place for
 // one frame only (a ghost 0.7 m in front of the camera, where the floor is 2 m and more away)
 // reaches the mapper without the landmark filter and never with it; the floor does.

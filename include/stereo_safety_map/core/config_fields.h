@@ -48,6 +48,11 @@ struct DisparityLevel {
 /// then the mapper's own.
 const ParamFieldList<SafetyMapperConfig>& safetyMapperFields();
 
+/// The row gap fill of the safety map's disparity (disparity_gap_fill.h): row_gap_fill*, in the
+/// safety-map nodelet's own list (it runs where the nodelet reprojects) and the offline
+/// processor's.
+const ParamFieldList<RowGapFillConfig>& rowGapFillFields();
+
 /// 001's landmark filter in front of the grid: use_landmark_filter and landmark_* (the depth
 /// range and stationary-frame thresholds are the mapper's, LandmarkStreamConfig::forMapper()).
 /// Validation: the filter's, its field names with the landmark_ prefix.

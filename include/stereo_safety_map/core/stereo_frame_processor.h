@@ -29,6 +29,7 @@
 // applies (the landmark filter refuses it).
 #pragma once
 
+#include "stereo_safety_map/core/disparity_gap_fill.h"
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/obstacle_cue.h"
@@ -57,6 +58,9 @@ struct StereoFrameProcessorConfig {
   SafetyMapperConfig mapper;
   int disparity_step =
       1;  ///< reproject every n-th row and column, [1, 16] (nodelet's ~disparity_step)
+  /// Row gap fill of the disparity before the reprojection (ours, disparity_gap_fill.h): the
+  /// safety map's own copy, the disparity() and the disparity nodelet's message stay unfilled.
+  RowGapFillConfig row_gap_fill;
   /// 001's landmark filter in front of the voxel grid (off by default). Its depth range and
   /// stationary-frame thresholds are the mapper's (LandmarkStreamConfig::forMapper()).
   LandmarkStreamConfig landmark_filter;
@@ -83,6 +87,7 @@ struct StereoFrameResult {
   FrameResult mapper;        ///< status of the grid update (kIntegrated, kStationary, ...)
   DisparityStats disparity;  ///< per-step counts (empty for processDisparity)
   std::size_t points = 0;    ///< reprojected points handed to the mapper
+  int gap_filled = 0;        ///< disparity pixels the row gap fill added (0 when off)
   std::size_t points_reprojected = 0;  ///< before the landmark filter (== points when off)
   bool landmark_filter_ran = false;    ///< the filter ran on this frame (on, not stationary)
   LandmarkFilterStats landmarks;       ///< its counters when it ran
@@ -173,6 +178,9 @@ class StereoFrameProcessor {
   void reset();
 
  private:
+  /// `disparity`, or its row-gap-filled copy in filled_ when row_gap_fill is on.
+  const cv::Mat& gapFilled(const cv::Mat& disparity, const StereoCameraModel& camera,
+                           StereoFrameResult* r);
   // Paper 003's cue on the current map (obstacle_cue.h), when on and the stamp is finite.
   void applyCue(const Eigen::Vector3f& robot_base_position, double stamp, StereoFrameResult* r);
   // The shared tail of every entry point: landmark filter (when `camera` is given), mapper,
@@ -190,6 +198,8 @@ class StereoFrameProcessor {
   std::vector<std::uint8_t> cue_marked_;
   ObstacleCueStats cue_stats_;
   cv::Mat disparity_;
+  cv::Mat filled_;  ///< the row-gap-filled copy that is reprojected (row_gap_fill on)
+  std::vector<float> fill_above_;  ///< fillRowGaps' column buffer
   StereoCameraModel disparity_camera_;
   std::vector<Eigen::Vector3f> points_;
 };

@@ -38,6 +38,7 @@ struct SafetyMapRosConfig {
   double max_rate = 0.0;          ///< most frames processed per second [Hz]; 0 = every frame
   double tf_timeout = 0.1;        ///< wait for the base frame's transform [s]
   int disparity_step = 1;         ///< use every n-th pixel in rows and columns
+  RowGapFillConfig row_gap_fill;  ///< the safety map's copy of the disparity (core)
   double time_jump_reset = 1.0;   ///< stamps going back by more than this reset the map [s]
   /// ~save writes only under this directory (absolute; created when missing).
   std::string save_directory = "/tmp/stereo_safety_map";
