@@ -132,8 +132,7 @@ void SafetyMapRos::cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg) {
 
 void SafetyMapRos::countArrival() {
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++frames_received_;
-  ++window_received_;
+  counts_.countReceived();
   last_arrival_ = ros::WallTime::now();
 }
 
@@ -160,7 +159,7 @@ void SafetyMapRos::tfFailure(const std_msgs::Header& header,
   tfWaitMs(header.stamp);  // forget its arrival
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++tf_failures_;
+    ++counts_.tf_failures;
   }
   reject("missing tf", tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason));
 }
@@ -253,8 +252,7 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
                                          << (dropped ? " (replaced a waiting frame)" : ""));
   if (dropped) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_dropped_;
-    ++window_dropped_;
+    counts_.countDropped();
   }
 }
 

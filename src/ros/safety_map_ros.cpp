@@ -45,7 +45,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
         }
         last_diagnostics_time_ = now;
       });
-  window_start_ = started_ = ros::WallTime::now();
+  counts_.window_start = started_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
@@ -154,9 +154,9 @@ SafetyMapRos::~SafetyMapRos() {
 }
 
 void SafetyMapRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
+  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_rejected_;
+    ++counts_.rejected;
   }
   problems_.report(reason, detail);
 }
@@ -211,7 +211,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   } catch (const tf2::TransformException& e) {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++tf_failures_;
+      ++counts_.tf_failures;
     }
     reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +
                              ": tf lookup failed: " + e.what());
@@ -269,7 +269,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   }
   if (non_finite > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    non_finite_values_ += non_finite;
+    counts_.non_finite += non_finite;
   }
 
   StereoFrameResult result;
@@ -346,10 +346,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     if (!integrated) {
       ++frames_stationary_;
     } else {
-      ++frames_processed_;
-      ++window_processed_;
-      processing_ms_last_ = ms;
-      processing_ms_sum_ += ms;
+      counts_.countProcessed(ms);
     }
     tf_wait_ms_sum_ += frame.tf_wait_ms;
     ++tf_wait_count_;
@@ -489,11 +486,11 @@ void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
   toStageTimingsMsg(processor_->mapper().lastTimings(), header, timings.get());
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    timings->frames_received = frames_received_;
-    timings->frames_processed = frames_processed_ + 1;  // this one
+    timings->frames_received = counts_.received;
+    timings->frames_processed = counts_.processed + 1;  // this one
     timings->frames_skipped_stationary = frames_stationary_;
-    timings->frames_dropped = frames_dropped_;
-    timings->frames_rejected = frames_rejected_ + tf_failures_;
+    timings->frames_dropped = counts_.dropped;
+    timings->frames_rejected = counts_.rejected + counts_.tf_failures;
   }
   timings_pub_.publish(timings);
 }
@@ -618,18 +615,11 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  const double window = counts_.window(now);
   stat.add("input", ros_config_.input);
   stat.add("fixed frame", ros_config_.fixed_frame);
-  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
-  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
-  stat.add("frames received", frames_received_);
-  stat.add("frames processed", frames_processed_);
+  counts_.addTo(stat, window, "frames dropped (processing slower than input)", true);
   stat.add("frames skipped (stationary)", frames_stationary_);
-  stat.add("frames dropped (processing slower than input)", frames_dropped_);
-  stat.add("frames rejected (bad input)", frames_rejected_);
-  stat.add("frames dropped (missing tf)", tf_failures_);
-  stat.add("NaN / inf values skipped", non_finite_values_);
   stat.add("map resets", map_resets_);
   stat.addf("max cell age [s]", "%.1f", max_cell_age_.load());
   stat.add("cells aged to Unknown (current map)", cells_aged_);
@@ -641,9 +631,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   const double since_used = (now - (last_used_.isZero() ? started_ : last_used_)).toSec();
   stat.addf("last input [s ago]", "%.1f", since_input);
   stat.addf("last frame used [s ago]", "%.1f", last_used_.isZero() ? -1.0 : since_used);
-  stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
-  stat.addf("processing time, mean [ms]", "%.1f",
-            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  stat.addf("processing time, last [ms]", "%.1f", counts_.processing_ms_last);
+  stat.addf("processing time, mean [ms]", "%.1f", counts_.meanProcessingMs());
   stat.addf("tf wait, mean [ms]", "%.1f",
             tf_wait_count_ > 0 ? tf_wait_ms_sum_ / tf_wait_count_ : 0.0);
   stat.add("landmark filter (001 Sec. 4.2)", landmark_config_.enabled ? "on" : "off");
@@ -655,36 +644,24 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   }
   diagnoseObstacleCue(stat);
   problems_.addTo(stat);
-  const bool recent_problem = problems_.recent(now);
   const std::string last_problem = problems_.last();
   const double stale = ros_config_.stale_input_timeout;
-  if (frames_received_ > 0 && since_input > stale) {
+  if (counts_.received > 0 && since_input > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "no input for %.1f s: the map is not updated (cells not re-observed for "
                   "max_cell_age fall back to Unknown)%s%s",
                   since_input,
                   last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
-  } else if (frames_received_ > 0 && since_used > stale) {
+  } else if (counts_.received > 0 && since_used > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "input arrives but no frame was used for %.1f s: the map is not updated%s%s",
                   since_used, last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
-  } else if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem);
-  } else if (window_dropped_ > 0) {
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "
-                  "the input or max_rate)",
-                  static_cast<unsigned long long>(window_dropped_),
-                  static_cast<unsigned long long>(window_received_), window);
-  } else if (frames_received_ == 0) {
-    stat.summary(DiagnosticStatus::OK, "waiting for input");
   } else {
-    stat.summary(DiagnosticStatus::OK, "map up to date");
+    counts_.summarize(stat, problems_, now, window,
+                      "processing is slower than the input or max_rate", "waiting for input",
+                      "map up to date");
   }
-  if (window >= 1.0) {
-    window_start_ = now;
-    window_received_ = window_processed_ = window_dropped_ = 0;
-  }
+  counts_.nextWindow(now, window);
 }
 
 // ---------------------------------------------------------------------------------------------

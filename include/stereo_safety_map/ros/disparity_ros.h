@@ -23,6 +23,7 @@
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
 #include "stereo_safety_map/ros/disparity_params.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
@@ -142,17 +143,9 @@ class DisparityRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   DisparityStats last_stats_;
   std::string matcher_in_use_;
-  double processing_ms_sum_ = 0.0;
-  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 };
 
 }  // namespace stereo_safety_map

@@ -16,6 +16,7 @@
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
@@ -125,20 +126,9 @@ class Occupancy2DRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
-  std::uint64_t tf_failures_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   std::uint64_t map_resets_ = 0;
-  std::uint64_t non_finite_values_ = 0;
   Grid2DUpdateStats last_update_;
-  double processing_ms_last_ = 0.0;
-  double processing_ms_sum_ = 0.0;
-  std::uint64_t window_received_ = 0;
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 };
 
 }  // namespace stereo_safety_map

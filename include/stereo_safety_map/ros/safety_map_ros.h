@@ -43,6 +43,7 @@
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
@@ -245,30 +246,19 @@ class SafetyMapRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   std::uint64_t frames_stationary_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
-  std::uint64_t tf_failures_ = 0;
   std::uint64_t map_resets_ = 0;
   std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
   ros::WallTime last_arrival_;  ///< last disparity / cloud message received
   ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
-  std::uint64_t non_finite_values_ = 0;      ///< NaN / inf pixels or points skipped
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
   double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
   double landmark_ms_last_ = 0.0;
   std::size_t landmarks_permanent_ = 0;
-  double processing_ms_last_ = 0.0;
-  double processing_ms_sum_ = 0.0;
   double tf_wait_ms_sum_ = 0.0;
   std::uint64_t tf_wait_count_ = 0;
-  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 
   // Obstacle cue (~obstacle_cue): the labelled obstacle points of ObstacleDetectionNodelet (paper
   // 003) mark their cells Non-ground in the next map (the processor's cue stage,
