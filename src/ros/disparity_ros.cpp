@@ -47,22 +47,11 @@ constexpr StepLabel kFilterSteps[] = {
 
 DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("disparity", this, &DisparityRos::diagnose);
-  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
-  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
-  // in the future and publish nothing: force it.
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
-        const ros::Time now = ros::Time::now();
-        if (now < last_diagnostics_time_) {
-          diagnostics_->force_update();
-        } else {
-          diagnostics_->update();
-        }
-        last_diagnostics_time_ = now;
-      });
+  // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "disparity",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kWall);
   counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -70,7 +59,7 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, disparityParameterNames())) {
@@ -144,7 +133,7 @@ DisparityRos::~DisparityRos() {
   }
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void DisparityRos::connectCb() {
@@ -384,11 +373,6 @@ void DisparityRos::reconfigureCb(DisparityConfig& config, uint32_t /*level*/) {
 }
 
 void DisparityRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double window = counts_.window(now);

@@ -107,11 +107,10 @@ std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xy
 
 ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("obstacle detection", this, &ObstacleDetectionRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "obstacle detection",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
   counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -119,7 +118,7 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, obstacleDetectionParameterNames())) {
@@ -166,7 +165,7 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
   exact_matcher_.reset();
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void ObstacleDetectionRos::setUpInputs() {
@@ -535,11 +534,6 @@ void ObstacleDetectionRos::publishMarkers(const std_msgs::Header& header) {
 }
 
 void ObstacleDetectionRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double window = counts_.window(now);

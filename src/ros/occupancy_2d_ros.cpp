@@ -17,11 +17,10 @@ namespace {}  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("occupancy grid 2d", this, &Occupancy2DRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "occupancy grid 2d",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
   counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -29,7 +28,7 @@ Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, occupancy2DParameterNames())) {
@@ -70,7 +69,7 @@ Occupancy2DRos::~Occupancy2DRos() {
   right_info_sub_.reset();
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void Occupancy2DRos::setUpInputs() {
@@ -262,11 +261,6 @@ bool Occupancy2DRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Respon
 }
 
 void Occupancy2DRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double window = counts_.window(now);

@@ -29,22 +29,11 @@ constexpr double kAgePeriod = 0.25;  // [s] between two agings / staleness check
 
 SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
-  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
-  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
-  // in the future and publish nothing: force it.
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
-        const ros::Time now = ros::Time::now();
-        if (now < last_diagnostics_time_) {
-          diagnostics_->force_update();
-        } else {
-          diagnostics_->update();
-        }
-        last_diagnostics_time_ = now;
-      });
+  // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "safety map",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kWall);
   counts_.window_start = started_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
@@ -60,7 +49,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
@@ -78,7 +67,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     config_error_ = "invalid parameter in " + pnh_.getNamespace() + ": " + err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: "
                            << config_error_);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   processor_ = std::make_unique<StereoFrameProcessor>(processor_config);  // valid: no throw
@@ -137,7 +126,7 @@ SafetyMapRos::~SafetyMapRos() {
   // progress: timers, services, the reconfigure server (before the mutex it uses), subscribers.
   // Then the filters, then the worker. Only then are the members destroyed.
   age_timer_.stop();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
   reset_srv_.shutdown();
   save_srv_.shutdown();
   reconfigure_.reset();
@@ -609,10 +598,6 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
 
 void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double window = counts_.window(now);

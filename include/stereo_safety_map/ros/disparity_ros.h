@@ -25,6 +25,7 @@
 #include "stereo_safety_map/ros/disparity_params.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -119,10 +120,8 @@ class DisparityRos {
   ros::Publisher disparity_pub_;
   ros::Publisher cloud_pub_;
   image_transport::Publisher debug_pub_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
-  ros::Time last_diagnostics_time_;           ///< timer callback only
-  boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
+  boost::recursive_mutex reconfigure_mutex_;         ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
 
   // One-slot queue between the sync callback and the worker.

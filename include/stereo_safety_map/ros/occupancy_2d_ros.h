@@ -18,6 +18,7 @@
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
@@ -107,8 +108,7 @@ class Occupancy2DRos {
 
   ros::Publisher grid_pub_;
   ros::ServiceServer reset_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // One-slot queue between the callbacks and the worker.
   FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)

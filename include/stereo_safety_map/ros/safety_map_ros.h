@@ -45,6 +45,7 @@
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
 #include "stereo_safety_map/ros/problem_log.h"
@@ -198,9 +199,7 @@ class SafetyMapRos {
   ros::Publisher obstacles_pub_;  ///< safety_obstacles: the lethal cells as points
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
-  ros::Time last_diagnostics_time_;  ///< timer callback only
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
   ros::WallTimer age_timer_;
   boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
