@@ -4,7 +4,10 @@
 // looking along +x; 320x240, f = 250 px, baseline 0.12 m. Both images are rendered by ray casting
 // from their own optical centre (so occlusions and perspective are exact), 3x3 supersampled, with
 // a 3D value-noise texture fixed to the surfaces and +-2 grey levels of sensor noise. Above the
-// floor's far edge the background is uniform grey: no texture, no true disparity.
+// floor's far edge the background is uniform grey: no texture, no true disparity. The solids are
+// the dataset's (dataset/scene.h), hit by Scene::intersect, the renderer's own intersection; only
+// the texture and noise are this file's (dataset::StereoRenderer shades and lights otherwise,
+// and the disparity rostests' thresholds are tuned to these images, pixel for pixel).
 //
 // The analytic disparity of the left image is f B / Z of the ray through each pixel centre.
 // A 5x5 px textured patch floats in that background with its own disparity (10 px): a small
@@ -12,6 +15,7 @@
 #pragma once
 
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/dataset/scene.h"
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <geometry_msgs/TransformStamped.h>
@@ -26,6 +30,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace stereo_scene {
@@ -80,32 +85,57 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
   return t;
 }
 
+/// The scene in the dataset's types (dataset/scene.h): the floor a slab whose top is z = 0 over
+/// kFloorMin..kFloorMax, the box exactly at kBoxMin..kBoxMax. Half-spaces n . x <= d written out
+/// (rather than dataset::makeBox's centre +- size / 2) keep the faces on the constants to the bit.
+inline const stereo_safety_map::dataset::Scene& scene() {
+  namespace ds = stereo_safety_map::dataset;
+  static const ds::Scene s = [] {
+    auto solid = [](const std::vector<std::pair<Eigen::Vector3d, double>>& planes) {
+      std::vector<ds::HalfSpace> hs;
+      for (const auto& p : planes) {
+        ds::HalfSpace h;
+        h.n = p.first;
+        h.d = p.second;
+        hs.push_back(h);
+      }
+      return ds::makeConvex(hs);
+    };
+    const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Y = Eigen::Vector3d::UnitY(),
+                          Z = Eigen::Vector3d::UnitZ();
+    ds::Scene sc;
+    ds::Primitive floor = solid({{Z, 0.0},
+                                 {-Z, 1.0},
+                                 {X, kFloorMax[0]},
+                                 {-X, -kFloorMin[0]},
+                                 {Y, kFloorMax[1]},
+                                 {-Y, -kFloorMin[1]}});
+    floor.name = "floor";
+    floor.ground = true;
+    sc.add(floor);
+    ds::Primitive box = solid({{X, kBoxMax[0]},
+                               {-X, -kBoxMin[0]},
+                               {Y, kBoxMax[1]},
+                               {-Y, -kBoxMin[1]},
+                               {Z, kBoxMax[2]},
+                               {-Z, -kBoxMin[2]}});
+    box.name = "box";
+    sc.add(box);
+    return sc;
+  }();
+  return s;
+}
+
 /// Ray parameter (= optical depth, as the direction has z = 1 in the camera) of the first hit of
-/// the ray o + t d, t > 0, with the floor or the box; infinity when nothing is hit.
+/// the ray o + t d, t > 0, with the floor or the box (Scene::intersect, the renderer's);
+/// infinity when nothing is hit.
 inline double castRay(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
-  double best = std::numeric_limits<double>::infinity();
-  if (d.z() < -1e-12) {
-    const double t = -o.z() / d.z();
-    const Eigen::Vector3d p = o + t * d;
-    if (p.x() >= kFloorMin[0] && p.x() <= kFloorMax[0] && p.y() >= kFloorMin[1] &&
-        p.y() <= kFloorMax[1]) {
-      best = t;
-    }
-  }
-  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    if (std::abs(d[a]) < 1e-12) {
-      if (o[a] < kBoxMin[a] || o[a] > kBoxMax[a]) return best;
-      continue;
-    }
-    double ta = (kBoxMin[a] - o[a]) / d[a], tb = (kBoxMax[a] - o[a]) / d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1) return best;
-  }
-  if (t0 > 0.0) best = std::min(best, t0);
-  return best;
+  stereo_safety_map::dataset::Ray ray;
+  ray.origin = o;
+  ray.dir = d;
+  stereo_safety_map::dataset::Hit hit;
+  const double inf = std::numeric_limits<double>::infinity();
+  return scene().intersect(ray, 0.0, inf, &hit) ? hit.t : inf;
 }
 
 inline double hash01(std::int64_t x, std::int64_t y, std::int64_t z, std::uint32_t seed) {
