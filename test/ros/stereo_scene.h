@@ -14,6 +14,8 @@
 // surface that no larger surface supports, i.e. what 002 Sec. 4.2 calls a spike.
 #pragma once
 
+#include "scene_solids.h"
+
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/dataset/scene.h"
 #include "stereo_safety_map/ros/conversions.h"
@@ -30,7 +32,6 @@
 #include <cstdint>
 #include <limits>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace stereo_scene {
@@ -86,39 +87,21 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
 }
 
 /// The scene in the dataset's types (dataset/scene.h): the floor a slab whose top is z = 0 over
-/// kFloorMin..kFloorMax, the box exactly at kBoxMin..kBoxMax. Half-spaces n . x <= d written out
-/// (rather than dataset::makeBox's centre +- size / 2) keep the faces on the constants to the bit.
+/// kFloorMin..kFloorMax, the box exactly at kBoxMin..kBoxMax (scene_solids.h: faces on the
+/// constants to the bit).
 inline const stereo_safety_map::dataset::Scene& scene() {
   namespace ds = stereo_safety_map::dataset;
   static const ds::Scene s = [] {
-    auto solid = [](const std::vector<std::pair<Eigen::Vector3d, double>>& planes) {
-      std::vector<ds::HalfSpace> hs;
-      for (const auto& p : planes) {
-        ds::HalfSpace h;
-        h.n = p.first;
-        h.d = p.second;
-        hs.push_back(h);
-      }
-      return ds::makeConvex(hs);
-    };
-    const Eigen::Vector3d X = Eigen::Vector3d::UnitX(), Y = Eigen::Vector3d::UnitY(),
-                          Z = Eigen::Vector3d::UnitZ();
     ds::Scene sc;
-    ds::Primitive floor = solid({{Z, 0.0},
-                                 {-Z, 1.0},
-                                 {X, kFloorMax[0]},
-                                 {-X, -kFloorMin[0]},
-                                 {Y, kFloorMax[1]},
-                                 {-Y, -kFloorMin[1]}});
+    ds::Primitive floor =
+        scene_solids::alignedBox(Eigen::Vector3d(kFloorMin[0], kFloorMin[1], -1.0),
+                                 Eigen::Vector3d(kFloorMax[0], kFloorMax[1], 0.0));
     floor.name = "floor";
     floor.ground = true;
     sc.add(floor);
-    ds::Primitive box = solid({{X, kBoxMax[0]},
-                               {-X, -kBoxMin[0]},
-                               {Y, kBoxMax[1]},
-                               {-Y, -kBoxMin[1]},
-                               {Z, kBoxMax[2]},
-                               {-Z, -kBoxMin[2]}});
+    ds::Primitive box =
+        scene_solids::alignedBox(Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
+                                 Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
     box.name = "box";
     sc.add(box);
     return sc;
