@@ -2,7 +2,9 @@
 // point per frame (core/stereo_frame_processor.h: reprojection, landmark filter, mapper of paper
 // 000 Sec. IV-VI, obstacle cue) and its results into messages; the offline evaluators call the
 // same entry point. Wrapped by
-// src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet).
+// src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet). Implemented in
+// src/ros/safety_map_inputs.cpp (the callbacks up to the slot), src/ros/safety_map_ros.cpp (the
+// rest) and ros/safety_map_export.h (~save's files).
 //
 // Threading model. Message callbacks run on the nodelet manager's thread pool. Each subscriber
 // callback first checks its message on its own (structure, values: conversions.h check*(), no
