@@ -68,7 +68,8 @@ ssm_dataset_key() {  # scene render-options...
   {
     cat "$scene"
     echo "options: $*"
-    cat "$SSM_ROOT"/src/dataset/*.cpp "$SSM_ROOT"/include/stereo_safety_map/dataset/*.h \
+    cat "$SSM_ROOT"/src/dataset/*.cpp "$SSM_ROOT"/src/dataset/*.h \
+      "$SSM_ROOT"/include/stereo_safety_map/dataset/*.h \
       "$SSM_ROOT"/src/tools/make_dataset.cpp
   } | sha1sum | cut -d' ' -f1
 }

@@ -47,30 +47,19 @@ constexpr StepLabel kFilterSteps[] = {
 
 DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("disparity", this, &DisparityRos::diagnose);
-  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
-  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
-  // in the future and publish nothing: force it.
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
-        const ros::Time now = ros::Time::now();
-        if (now < last_diagnostics_time_) {
-          diagnostics_->force_update();
-        } else {
-          diagnostics_->update();
-        }
-        last_diagnostics_time_ = now;
-      });
-  window_start_ = ros::WallTime::now();
+  // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "disparity",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kWall);
+  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &pipeline_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, disparityParameterNames())) {
@@ -144,7 +133,7 @@ DisparityRos::~DisparityRos() {
   }
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void DisparityRos::connectCb() {
@@ -186,12 +175,10 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
   std::uint64_t total_dropped = 0;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_received_;
-    ++window_received_;
+    counts_.countReceived();
     if (dropped) {
-      ++frames_dropped_;
-      ++window_dropped_;
-      total_dropped = frames_dropped_;
+      counts_.countDropped();
+      total_dropped = counts_.dropped;
     }
   }
   if (dropped && problems_.shouldLog(kDroppedReason)) {
@@ -205,7 +192,7 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
 void DisparityRos::reject(const std::string& reason, const std::string& detail) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_rejected_;
+    ++counts_.rejected;
   }
   problems_.report(reason, detail);
 }
@@ -289,9 +276,7 @@ void DisparityRos::processFrame(const Frame& frame) {
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++frames_processed_;
-  ++window_processed_;
-  processing_ms_sum_ += ms;
+  counts_.countProcessed(ms);
   last_stats_ = stats;
   matcher_in_use_ = matcherName(pipeline_.config().matcher);
 }
@@ -388,24 +373,13 @@ void DisparityRos::reconfigureCb(DisparityConfig& config, uint32_t /*level*/) {
 }
 
 void DisparityRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  const double window = counts_.window(now);
   stat.add("matcher", matcher_in_use_);
-  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
-  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
-  stat.add("frames received", frames_received_);
-  stat.add("frames processed", frames_processed_);
-  stat.add("frames dropped (input faster than processing)", frames_dropped_);
-  stat.add("frames rejected (bad input)", frames_rejected_);
-  stat.addf("processing time, mean [ms]", "%.1f",
-            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
-  if (frames_processed_ > 0) {
+  counts_.addTo(stat, window, "frames dropped (input faster than processing)", false);
+  stat.addf("processing time, mean [ms]", "%.1f", counts_.meanProcessingMs());
+  if (counts_.processed > 0) {
     const DisparityStats& s = last_stats_;
     stat.addf("valid pixels, last frame [%]", "%.1f",
               s.pixels > 0 ? 100.0 * s.valid / s.pixels : 0.0);
@@ -419,23 +393,10 @@ void DisparityRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
     }
   }
   problems_.addTo(stat);
-  if (problems_.recent(now)) {
-    stat.summary(DiagnosticStatus::WARN, problems_.last());
-  } else if (window_dropped_ > 0) {
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "dropping frames: %llu of %llu in the last %.1f s (the input is faster than "
-                  "the disparity computation)",
-                  static_cast<unsigned long long>(window_dropped_),
-                  static_cast<unsigned long long>(window_received_), window);
-  } else if (frames_received_ == 0) {
-    stat.summary(DiagnosticStatus::OK, "waiting for input (subscribed while an output is)");
-  } else {
-    stat.summary(DiagnosticStatus::OK, "disparity up to date");
-  }
-  if (window >= 1.0) {
-    window_start_ = now;
-    window_received_ = window_processed_ = window_dropped_ = 0;
-  }
+  counts_.summarize(stat, problems_, now, window,
+                    "the input is faster than the disparity computation",
+                    "waiting for input (subscribed while an output is)", "disparity up to date");
+  counts_.nextWindow(now, window);
 }
 
 }  // namespace stereo_safety_map

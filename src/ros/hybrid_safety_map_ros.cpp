@@ -17,17 +17,16 @@ namespace {}  // namespace
 
 HybridSafetyMapRos::HybridSafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("laser + stereo");
-  diagnostics_->add("hybrid safety map", this, &HybridSafetyMapRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "laser + stereo", "hybrid safety map",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
 
   const std::string err = fromRosParam(pnh_, &ros_config_, &laser_config_, &hybrid_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, hybridSafetyMapParameterNames())) {
@@ -64,7 +63,7 @@ HybridSafetyMapRos::~HybridSafetyMapRos() {
   scan_filter_.reset();
   scan_sub_.reset();
   vision_sub_.shutdown();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void HybridSafetyMapRos::reject(const std::string& reason, const std::string& detail) {
@@ -247,10 +246,6 @@ bool HybridSafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Re
 
 void HybridSafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   stat.add("fixed frame", ros_config_.fixed_frame);

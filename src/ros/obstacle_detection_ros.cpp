@@ -107,19 +107,18 @@ std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xy
 
 ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("obstacle detection", this, &ObstacleDetectionRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
-  window_start_ = ros::WallTime::now();
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "obstacle detection",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
+  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &detector_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, obstacleDetectionParameterNames())) {
@@ -166,7 +165,7 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
   exact_matcher_.reset();
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void ObstacleDetectionRos::setUpInputs() {
@@ -176,8 +175,7 @@ void ObstacleDetectionRos::setUpInputs() {
   if (ros_config_.input == "cloud") {
     cloud_sub_.registerCallback([this](const sensor_msgs::PointCloud2ConstPtr&) {
       std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++frames_received_;
-      ++window_received_;
+      counts_.countReceived();
     });
     cloud_filter_ =
         std::make_unique<CloudFilter>(cloud_sub_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
@@ -192,8 +190,7 @@ void ObstacleDetectionRos::setUpInputs() {
   }
   disparity_sub_.registerCallback([this](const stereo_msgs::DisparityImageConstPtr&) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_received_;
-    ++window_received_;
+    counts_.countReceived();
   });
   disparity_filter_ = std::make_unique<DisparityFilter>(disparity_sub_, *tf_buffer_,
                                                         ros_config_.fixed_frame, q, nh_);
@@ -245,7 +242,7 @@ void ObstacleDetectionRos::tfFailure(const std_msgs::Header& header,
                                      tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++tf_failures_;
+    ++counts_.tf_failures;
   }
   reject("missing tf",
          tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason,
@@ -272,8 +269,7 @@ void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
   if (slot_.put(std::move(frame)) != FrameSlot<Frame>::Put::kReplaced) return;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_dropped_;
-    ++window_dropped_;
+    counts_.countDropped();
   }
   if (problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": frames arrive faster than obstacles are detected: the waiting "
@@ -282,9 +278,9 @@ void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
 }
 
 void ObstacleDetectionRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
+  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_rejected_;
+    ++counts_.rejected;
   }
   problems_.report(reason, detail);
 }
@@ -303,7 +299,7 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
   } catch (const tf2::TransformException& e) {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++tf_failures_;
+      ++counts_.tf_failures;
     }
     reject("missing tf", std::string("dropped a frame: tf lookup failed: ") + e.what());
     return;
@@ -357,7 +353,7 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
   }
   if (non_finite > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    non_finite_values_ += non_finite;
+    counts_.non_finite += non_finite;
   }
   if (valid == 0) {
     reject(non_finite > 0 ? "non-finite input" : "no valid data",
@@ -388,9 +384,7 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++frames_processed_;
-  ++window_processed_;
-  processing_ms_sum_ += ms;
+  counts_.countProcessed(ms);
   detection_ms_last_ = detect_ms;
   focal_length_last_ = f;
   valid_points_last_ = result_.valid_points;
@@ -540,27 +534,14 @@ void ObstacleDetectionRos::publishMarkers(const std_msgs::Header& header) {
 }
 
 void ObstacleDetectionRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  const double window = counts_.window(now);
   stat.add("input", ros_config_.input);
   stat.add("method", ros_config_.method);
   stat.add("fixed frame (gravity)", ros_config_.fixed_frame);
-  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
-  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
-  stat.add("frames received", frames_received_);
-  stat.add("frames processed", frames_processed_);
-  stat.add("frames dropped (input faster than processing)", frames_dropped_);
-  stat.add("frames rejected (bad input)", frames_rejected_);
-  stat.add("frames dropped (missing tf)", tf_failures_);
-  stat.add("NaN / inf values skipped", non_finite_values_);
-  stat.addf("processing time, mean [ms]", "%.1f",
-            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  counts_.addTo(stat, window, "frames dropped (input faster than processing)", true);
+  stat.addf("processing time, mean [ms]", "%.1f", counts_.meanProcessingMs());
   stat.addf("detection time, last frame [ms]", "%.1f", detection_ms_last_);
   stat.addf("focal length, last frame [px]", "%.1f", focal_length_last_);
   stat.add("valid points, last frame", valid_points_last_);
@@ -568,23 +549,9 @@ void ObstacleDetectionRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("obstacles accepted, last frame", accepted_last_);
   stat.add("obstacles rejected (Sec. 5 rules), last frame", rejected_last_);
   problems_.addTo(stat);
-  if (problems_.recent(now)) {
-    stat.summary(DiagnosticStatus::WARN, problems_.last());
-  } else if (window_dropped_ > 0) {
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "dropping frames: %llu of %llu in the last %.1f s (the input is faster than "
-                  "the detection)",
-                  static_cast<unsigned long long>(window_dropped_),
-                  static_cast<unsigned long long>(window_received_), window);
-  } else if (frames_received_ == 0) {
-    stat.summary(DiagnosticStatus::OK, "waiting for input (subscribed while an output is)");
-  } else {
-    stat.summary(DiagnosticStatus::OK, "obstacles up to date");
-  }
-  if (window >= 1.0) {
-    window_start_ = now;
-    window_received_ = window_processed_ = window_dropped_ = 0;
-  }
+  counts_.summarize(stat, problems_, now, window, "the input is faster than the detection",
+                    "waiting for input (subscribed while an output is)", "obstacles up to date");
+  counts_.nextWindow(now, window);
 }
 
 }  // namespace stereo_safety_map

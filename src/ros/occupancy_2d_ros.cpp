@@ -17,19 +17,18 @@ namespace {}  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("occupancy grid 2d", this, &Occupancy2DRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
-  window_start_ = ros::WallTime::now();
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "occupancy grid 2d",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
+  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &grid_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, occupancy2DParameterNames())) {
@@ -70,7 +69,7 @@ Occupancy2DRos::~Occupancy2DRos() {
   right_info_sub_.reset();
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
 }
 
 void Occupancy2DRos::setUpInputs() {
@@ -85,8 +84,7 @@ void Occupancy2DRos::setUpInputs() {
       nh_, "stereo/right/camera_info", q);
   disparity_sub_->registerCallback([this](const stereo_msgs::DisparityImageConstPtr&) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_received_;
-    ++window_received_;
+    counts_.countReceived();
   });
   disparity_filter_ = std::make_unique<DisparityFilter>(*disparity_sub_, *tf_buffer_,
                                                         ros_config_.fixed_frame, q, nh_);
@@ -118,7 +116,7 @@ void Occupancy2DRos::tfFailure(const std_msgs::Header& header,
                                tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++tf_failures_;
+    ++counts_.tf_failures;
   }
   reject("missing tf", tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason));
 }
@@ -133,15 +131,14 @@ void Occupancy2DRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disp
   const bool dropped = slot_.put(std::move(frame)) == FrameSlot<Frame>::Put::kReplaced;
   if (dropped) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_dropped_;
-    ++window_dropped_;
+    counts_.countDropped();
   }
 }
 
 void Occupancy2DRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
+  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_rejected_;
+    ++counts_.rejected;
   }
   problems_.report(reason, detail);
 }
@@ -186,7 +183,7 @@ void Occupancy2DRos::processFrame(const Frame& frame) {
   } catch (const tf2::TransformException& e) {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++tf_failures_;
+      ++counts_.tf_failures;
     }
     reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +
                              ": tf lookup failed: " + e.what());
@@ -216,7 +213,7 @@ void Occupancy2DRos::processFrame(const Frame& frame) {
   }
   if (stats.non_finite > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    non_finite_values_ += stats.non_finite;
+    counts_.non_finite += stats.non_finite;
   }
 
   Grid2DUpdateStats result;
@@ -247,10 +244,7 @@ void Occupancy2DRos::processFrame(const Frame& frame) {
   }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++frames_processed_;
-  ++window_processed_;
-  processing_ms_last_ = ms;
-  processing_ms_sum_ += ms;
+  counts_.countProcessed(ms);
   last_update_ = result;
 }
 
@@ -267,49 +261,22 @@ bool Occupancy2DRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Respon
 }
 
 void Occupancy2DRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  const double window = counts_.window(now);
   stat.add("fixed frame", ros_config_.fixed_frame);
-  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
-  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
-  stat.add("frames received", frames_received_);
-  stat.add("frames processed", frames_processed_);
-  stat.add("frames dropped (processing slower than input)", frames_dropped_);
-  stat.add("frames rejected (bad input)", frames_rejected_);
-  stat.add("frames dropped (missing tf)", tf_failures_);
-  stat.add("NaN / inf values skipped", non_finite_values_);
+  counts_.addTo(stat, window, "frames dropped (processing slower than input)", true);
   stat.add("grid resets", map_resets_);
   stat.add("columns with a reading, last frame", last_update_.columns_with_reading);
   stat.add("columns explained by better evidence, last frame", last_update_.columns_explained);
   stat.add("cells raised (+K), last frame", last_update_.cells_raised);
   stat.add("cells lowered (-K), last frame", last_update_.cells_lowered);
-  stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
-  stat.addf("processing time, mean [ms]", "%.1f",
-            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  stat.addf("processing time, last [ms]", "%.1f", counts_.processing_ms_last);
+  stat.addf("processing time, mean [ms]", "%.1f", counts_.meanProcessingMs());
   problems_.addTo(stat);
-  if (problems_.recent(now)) {
-    stat.summary(DiagnosticStatus::WARN, problems_.last());
-  } else if (window_dropped_ > 0) {
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "
-                  "the input or max_rate)",
-                  static_cast<unsigned long long>(window_dropped_),
-                  static_cast<unsigned long long>(window_received_), window);
-  } else if (frames_received_ == 0) {
-    stat.summary(DiagnosticStatus::OK, "waiting for input");
-  } else {
-    stat.summary(DiagnosticStatus::OK, "grid up to date");
-  }
-  if (window >= 1.0) {
-    window_start_ = now;
-    window_received_ = window_processed_ = window_dropped_ = 0;
-  }
+  counts_.summarize(stat, problems_, now, window, "processing is slower than the input or max_rate",
+                    "waiting for input", "grid up to date");
+  counts_.nextWindow(now, window);
 }
 
 }  // namespace stereo_safety_map

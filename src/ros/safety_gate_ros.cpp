@@ -59,18 +59,17 @@ std_msgs::ColorRGBA stateColour(GateState s, float alpha) {
 
 SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("safety gate");
-  diagnostics_->add("safety gate", this, &SafetyGateRos::diagnose);
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.25),
-                                       [this](const ros::TimerEvent&) { diagnostics_->update(); });
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "safety gate", "safety gate",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kRos);
   rate_window_start_ = ros::WallTime::now();
 
   const std::string err = fromRosParam(pnh_, &ros_config_, &gate_config_);
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, safetyGateParameterNames())) {
@@ -99,7 +98,7 @@ SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 SafetyGateRos::~SafetyGateRos() {
   watchdog_.stop();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
   cmd_sub_.shutdown();
   map_sub_.shutdown();
 }
@@ -370,10 +369,6 @@ void SafetyGateRos::publishMarkers(const GateDecision& d, const ros::Time& now, 
 
 void SafetyGateRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(mutex_);
   const ros::WallTime wall = ros::WallTime::now();
   const double window = (wall - rate_window_start_).toSec();

@@ -5,104 +5,36 @@
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
 #include "stereo_safety_map/ros/reconfigure_fields.h"
+#include "stereo_safety_map/ros/safety_map_export.h"
 
 #include <nav_msgs/OccupancyGrid.h>
-#include <octomap/OcTree.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <boost/bind/bind.hpp>
 
-#include <opencv2/imgcodecs.hpp>
-
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 
 namespace stereo_safety_map {
 
 namespace {
 
-// Frames between their check and the worker are at most queue_size in the tf filter and
-// queue_size in the matcher; more entries are leftovers (e.g. a repeated stamp).
-constexpr std::size_t kMaxArrivals = 256;
 constexpr double kAgePeriod = 0.25;  // [s] between two agings / staleness checks of the map
-
-// A file of ~save: its final path, the temporary one it is written to first, its bytes.
-struct SaveFile {
-  std::string path;
-  std::string tmp;
-  std::string bytes;
-};
-
-// A temporary name next to `path` that no other save (of this or another nodelet in this
-// process, or another process) uses at the same time.
-std::string temporaryName(const std::string& path) {
-  static std::atomic<std::uint64_t> counter{0};
-  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-}
-
-// Writes every file to its temporary name, then renames them all: a reader never sees a
-// half-written file, and the set is replaced at once (but for the few renames). On failure the
-// temporary files are removed and the message says what failed.
-std::string writeFilesAtomically(std::vector<SaveFile>* files) {
-  std::string err;
-  for (SaveFile& f : *files) {
-    f.tmp = temporaryName(f.path);
-    std::ofstream out(f.tmp, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      err = "cannot open " + f.tmp + " for writing";
-      break;
-    }
-    out.write(f.bytes.data(), static_cast<std::streamsize>(f.bytes.size()));
-    out.close();
-    if (!out) {
-      err = "cannot write " + f.tmp;
-      break;
-    }
-  }
-  for (const SaveFile& f : *files) {
-    if (!err.empty()) break;
-    if (std::rename(f.tmp.c_str(), f.path.c_str()) != 0) {
-      err = "cannot rename " + f.tmp + " to " + f.path;
-    }
-  }
-  if (!err.empty()) {
-    // Temporary names are unique: removing one that was renamed already fails harmlessly.
-    for (const SaveFile& f : *files)
-      if (!f.tmp.empty()) std::remove(f.tmp.c_str());
-  }
-  return err;
-}
 
 }  // namespace
 
 SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("stereo camera");
-  diagnostics_->add("safety map", this, &SafetyMapRos::diagnose);
-  // A wall timer: it runs while a bag is paused and across a clock that goes back. After the
-  // clock went back (a bag played again), diagnostic_updater would wait for its next time far
-  // in the future and publish nothing: force it.
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.25), [this](const ros::WallTimerEvent&) {
-        const ros::Time now = ros::Time::now();
-        if (now < last_diagnostics_time_) {
-          diagnostics_->force_update();
-        } else {
-          diagnostics_->update();
-        }
-        last_diagnostics_time_ = now;
-      });
-  window_start_ = started_ = ros::WallTime::now();
+  // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
+  diagnostics_ = std::make_unique<NodeletDiagnostics>(
+      nh_, pnh_, name_, "stereo camera", "safety map",
+      [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
+      NodeletDiagnostics::Clock::kWall);
+  counts_.window_start = started_ = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
@@ -117,7 +49,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (!err.empty()) {
     config_error_ = err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
@@ -136,7 +68,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     config_error_ = "invalid parameter in " + pnh_.getNamespace() + ": " + err;
     ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: "
                            << config_error_);
-    diagnostics_->force_update();
+    diagnostics_->refuse(config_error_);
     return;
   }
   processor_ = std::make_unique<StereoFrameProcessor>(processor_config);  // valid: no throw
@@ -195,7 +127,7 @@ SafetyMapRos::~SafetyMapRos() {
   // progress: timers, services, the reconfigure server (before the mutex it uses), subscribers.
   // Then the filters, then the worker. Only then are the members destroyed.
   age_timer_.stop();
-  diagnostics_timer_.stop();
+  diagnostics_->stop();
   reset_srv_.shutdown();
   save_srv_.shutdown();
   reconfigure_.reset();
@@ -211,248 +143,10 @@ SafetyMapRos::~SafetyMapRos() {
   if (worker_.joinable()) worker_.join();
 }
 
-void SafetyMapRos::setUpInputs() {
-  const int q = ros_config_.queue_size;
-  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(kTfCacheTime));
-  tf_listener_ = std::make_shared<tf2_ros::TransformListener>(*tf_buffer_, nh_);
-  auto failure = [this](const auto& msg, tf2_ros::filter_failure_reasons::FilterFailureReason r) {
-    tfFailure(msg->header, r);
-  };
-  if (ros_config_.input == "cloud") {
-    cloud_filter_ =
-        std::make_unique<CloudFilter>(cloud_in_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
-    cloud_filter_->registerCallback(
-        boost::bind(&SafetyMapRos::cloudCb, this, boost::placeholders::_1));
-    cloud_filter_->registerFailureCallback(
-        [failure](const sensor_msgs::PointCloud2ConstPtr& m,
-                  tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
-    cloud_sub_ = nh_.subscribe("points", q, &SafetyMapRos::cloudIn, this);
-    return;
-  }
-  disparity_filter_ = std::make_unique<DisparityFilter>(disparity_in_, *tf_buffer_,
-                                                        ros_config_.fixed_frame, q, nh_);
-  disparity_filter_->registerFailureCallback(
-      [failure](const stereo_msgs::DisparityImageConstPtr& m,
-                tf2_ros::filter_failure_reasons::FilterFailureReason r) { failure(m, r); });
-  if (ros_config_.approximate_sync) {
-    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
-        ApproximatePolicy(q), *disparity_filter_, left_info_in_, right_info_in_);
-    approximate_sync_->registerCallback(
-        boost::bind(&SafetyMapRos::disparityCb, this, boost::placeholders::_1,
-                    boost::placeholders::_2, boost::placeholders::_3));
-  } else {
-    exact_matcher_ = std::make_unique<FrameMatcher>(
-        FrameMatcher::Limits::forNodelet(q),
-        [this](const stereo_msgs::DisparityImageConstPtr& d,
-               const sensor_msgs::CameraInfoConstPtr& l,
-               const sensor_msgs::CameraInfoConstPtr& r) { disparityCb(d, l, r); },
-        [this](const ros::Time& stamp, const std::string& why) {
-          tfWaitMs(stamp);  // forget its arrival
-          reject("no camera info", unmatchedDisparityMessage(stamp, why));
-        });
-    exact_matcher_->connectInput<0>(*disparity_filter_);
-    exact_matcher_->connectInput<1>(left_info_in_);
-    exact_matcher_->connectInput<2>(right_info_in_);
-  }
-  // Subscribed last: the chain behind them is complete.
-  left_info_sub_ = nh_.subscribe("stereo/left/camera_info", q, &SafetyMapRos::leftInfoIn, this);
-  right_info_sub_ = nh_.subscribe("stereo/right/camera_info", q, &SafetyMapRos::rightInfoIn, this);
-  disparity_sub_ = nh_.subscribe("stereo/disparity", q, &SafetyMapRos::disparityIn, this);
-}
-
-void SafetyMapRos::disparityIn(const stereo_msgs::DisparityImageConstPtr& msg) {
-  countArrival();
-  DisparityImageStats stats;
-  const std::string err = checkDisparityImage(*msg, &stats);
-  if (!err.empty()) {
-    reject("bad disparity image", "dropped a disparity frame: " + err);
-    return;
-  }
-  if (stats.non_finite + stats.out_of_range >= stats.pixels) {
-    std::ostringstream os;
-    os << "dropped a disparity frame without a valid pixel (" << stats.non_finite
-       << " NaN / inf and " << stats.out_of_range << " outside [min_disparity, max_disparity]"
-       << " of " << stats.pixels << "): camera covered, black or failing?";
-    reject(stats.non_finite > 0 ? "non-finite input" : "no valid data", os.str());
-    return;
-  }
-  noteArrival(msg->header.stamp);
-  disparity_in_.add(msg);
-}
-
-void SafetyMapRos::leftInfoIn(const sensor_msgs::CameraInfoConstPtr& msg) {
-  const std::string err = checkCameraInfo(*msg, "left");
-  if (!err.empty()) {
-    reject("bad camera model", "dropped a CameraInfo: " + err);
-    return;
-  }
-  left_info_in_.add(msg);
-}
-
-void SafetyMapRos::rightInfoIn(const sensor_msgs::CameraInfoConstPtr& msg) {
-  std::string err = checkCameraInfo(*msg, "right");
-  if (err.empty() && !(msg->P[3] < 0.0)) {
-    err = "right CameraInfo has zero baseline (P[3] = Tx = -fx B = " + std::to_string(msg->P[3]) +
-          ", must be < 0)";
-  }
-  if (!err.empty()) {
-    reject("bad camera model", "dropped a CameraInfo: " + err);
-    return;
-  }
-  right_info_in_.add(msg);
-}
-
-void SafetyMapRos::cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg) {
-  countArrival();
-  CloudStats stats;
-  const std::string err = checkPointCloud2(*msg, &stats);
-  if (!err.empty()) {
-    reject("bad point cloud", "dropped a cloud: " + err);
-    return;
-  }
-  if (stats.non_finite >= stats.points) {
-    std::ostringstream os;
-    os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "
-       << stats.points << ")";
-    reject("non-finite input", os.str());
-    return;
-  }
-  noteArrival(msg->header.stamp);
-  cloud_in_.add(msg);
-}
-
-void SafetyMapRos::countArrival() {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++frames_received_;
-  ++window_received_;
-  last_arrival_ = ros::WallTime::now();
-}
-
-void SafetyMapRos::noteArrival(const ros::Time& stamp) {
-  std::lock_guard<std::mutex> lock(arrival_mutex_);
-  // A repeated stamp (a bag played again, whose frame of that stamp was lost in the last loop's
-  // approximate sync) takes the new arrival: an old one would make its frame look stale.
-  arrivals_[stamp] = Clock::now();
-  while (arrivals_.size() > kMaxArrivals)
-    arrivals_.erase(arrivals_.begin());
-}
-
-double SafetyMapRos::tfWaitMs(const ros::Time& stamp) {
-  std::lock_guard<std::mutex> lock(arrival_mutex_);
-  const auto it = arrivals_.find(stamp);
-  if (it == arrivals_.end()) return 0.0;
-  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - it->second).count();
-  arrivals_.erase(it);
-  return ms;
-}
-
-void SafetyMapRos::tfFailure(const std_msgs::Header& header,
-                             tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-  tfWaitMs(header.stamp);  // forget its arrival
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++tf_failures_;
-  }
-  reject("missing tf", tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason));
-}
-
-void SafetyMapRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
-                               const sensor_msgs::CameraInfoConstPtr& left,
-                               const sensor_msgs::CameraInfoConstPtr& right) {
-  // The frame as a whole, before it can take a valid frame's place in the slot.
-  StereoCameraModel camera;
-  std::string err = cameraModelFromCameraInfo(*left, *right, &camera);
-  if (err.empty()) err = cameraModelForDisparity(*disparity, *left, &camera);
-  if (!err.empty()) {
-    tfWaitMs(disparity->header.stamp);  // forget its arrival
-    reject("bad camera model", "dropped a disparity frame: " + err);
-    return;
-  }
-  auto frame = std::make_unique<Frame>();
-  frame->header = disparity->header;
-  frame->disparity = disparity;
-  frame->left_info = left;
-  frame->right_info = right;
-  frame->tf_wait_ms = tfWaitMs(disparity->header.stamp);
-  ROS_DEBUG_STREAM_NAMED("frames", name_ << ": synced disparity frame " << disparity->header.stamp
-                                         << ", tf wait " << frame->tf_wait_ms << " ms");
-  enqueue(std::move(frame));
-}
-
-void SafetyMapRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
-  auto frame = std::make_unique<Frame>();
-  frame->header = cloud->header;
-  frame->cloud = cloud;
-  frame->tf_wait_ms = tfWaitMs(cloud->header.stamp);
-  enqueue(std::move(frame));
-}
-
-void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
-  const ros::Time enqueued_stamp = frame->header.stamp;
-  // A transform that came long after its frame: tf stalled, and the pose of a frame in the gap
-  // would be interpolated between samples seconds apart, not measured. Refused here, before the
-  // slot, so that it never replaces a waiting frame and is always named, in whatever order the
-  // frames of the gap and those after it come out of the tf filter.
-  if (frame->tf_wait_ms > 1000.0 * ros_config_.max_tf_wait) {
-    std::ostringstream os;
-    os << "dropped a frame at t = " << enqueued_stamp << ": its transform came "
-       << frame->tf_wait_ms / 1000.0
-       << " s after it (more than max_tf_wait = " << ros_config_.max_tf_wait
-       << " s): tf stalled, the pose would be interpolated across the gap";
-    reject("stale tf", os.str());
-    return;
-  }
-  std::string out_of_order;
-  // Under the slot's lock: newest_stamp_ changes with the slot.
-  const auto put = slot_.putIf(std::move(frame), [&](Frame& incoming, const Frame* waiting) {
-    const ros::Time stamp = incoming.header.stamp;
-    if (!newest_stamp_.isZero() && stamp <= newest_stamp_) {
-      // Time went back. A restart (a bag played again) moves the clock back as well: the map is
-      // reset once. A frame from the past while the clock runs on is stale: dropped, the map
-      // kept, whatever its age (one stale message must not wipe the map).
-      const double back = (newest_stamp_ - stamp).toSec();
-      const ros::Time now = ros::Time::now();
-      const ros::Duration jump(ros_config_.time_jump_reset);
-      const bool clock_back = now.isZero() || now + jump < newest_stamp_;
-      if (back > ros_config_.time_jump_reset && clock_back) {
-        incoming.reset_map = true;
-      } else {
-        std::ostringstream os;
-        os << "dropped a frame out of order: stamp " << stamp << " is " << back
-           << " s older than the newest frame ("
-           << (back > ros_config_.time_jump_reset
-                   ? "the clock did not go back with it: a stale message"
-                   : "less than time_jump_reset = " + std::to_string(ros_config_.time_jump_reset) +
-                         " s")
-           << "; the map is kept)";
-        out_of_order = os.str();
-        return false;
-      }
-    }
-    newest_stamp_ = stamp;
-    // A waiting restart is not lost with the frame that carries it.
-    if (waiting && waiting->reset_map) incoming.reset_map = true;
-    return true;
-  });
-  if (put == FrameSlot<Frame>::Put::kStopped) return;
-  if (put == FrameSlot<Frame>::Put::kRefused) {
-    reject("out of order", out_of_order);
-    return;
-  }
-  const bool dropped = put == FrameSlot<Frame>::Put::kReplaced;
-  ROS_DEBUG_STREAM_NAMED("frames", name_ << ": enqueued frame " << enqueued_stamp
-                                         << (dropped ? " (replaced a waiting frame)" : ""));
-  if (dropped) {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_dropped_;
-    ++window_dropped_;
-  }
-}
-
 void SafetyMapRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in tf_failures_
+  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++frames_rejected_;
+    ++counts_.rejected;
   }
   problems_.report(reason, detail);
 }
@@ -507,7 +201,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   } catch (const tf2::TransformException& e) {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++tf_failures_;
+      ++counts_.tf_failures;
     }
     reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +
                              ": tf lookup failed: " + e.what());
@@ -565,7 +259,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   }
   if (non_finite > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    non_finite_values_ += non_finite;
+    counts_.non_finite += non_finite;
   }
 
   StereoFrameResult result;
@@ -642,10 +336,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     if (!integrated) {
       ++frames_stationary_;
     } else {
-      ++frames_processed_;
-      ++window_processed_;
-      processing_ms_last_ = ms;
-      processing_ms_sum_ += ms;
+      counts_.countProcessed(ms);
     }
     tf_wait_ms_sum_ += frame.tf_wait_ms;
     ++tf_wait_count_;
@@ -785,11 +476,11 @@ void SafetyMapRos::publishOutputs(const std_msgs::Header& header,
   toStageTimingsMsg(processor_->mapper().lastTimings(), header, timings.get());
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    timings->frames_received = frames_received_;
-    timings->frames_processed = frames_processed_ + 1;  // this one
+    timings->frames_received = counts_.received;
+    timings->frames_processed = counts_.processed + 1;  // this one
     timings->frames_skipped_stationary = frames_stationary_;
-    timings->frames_dropped = frames_dropped_;
-    timings->frames_rejected = frames_rejected_ + tf_failures_;
+    timings->frames_dropped = counts_.dropped;
+    timings->frames_rejected = counts_.rejected + counts_.tf_failures;
   }
   timings_pub_.publish(timings);
 }
@@ -815,19 +506,9 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
     res.message = "not running: " + config_error_;
     return true;
   }
-  // Only under save_directory: a prefix that leaves it (absolute elsewhere, "..", a symlink out)
-  // is refused. Checked again once the directories exist, so that a symlink made in between is
-  // seen.
   const std::string requested = req.path_prefix.empty() ? ros_config_.save_prefix : req.path_prefix;
   std::string prefix;
-  std::string err = resolveSavePrefix(ros_config_.save_directory, requested, &prefix);
-  std::error_code ec;
-  if (err.empty()) {
-    const std::filesystem::path parent = std::filesystem::path(prefix).parent_path();
-    std::filesystem::create_directories(parent, ec);
-    if (ec) err = "cannot create " + parent.string() + ": " + ec.message();
-  }
-  if (err.empty()) err = resolveSavePrefix(ros_config_.save_directory, requested, &prefix);
+  std::string err = prepareSavePrefix(ros_config_.save_directory, requested, &prefix);
   if (!err.empty()) {
     res.success = false;
     res.message = err;
@@ -835,104 +516,18 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
     return true;
   }
 
-  // The files' bytes are made from one state of the map under core_mutex_; they are written
-  // after it is released, so that the worker does not wait for the disk.
+  // The files' bytes are made from one state of the map under core_mutex_ (safety_map_export.h);
+  // they are written after it is released, so that the worker does not wait for the disk.
   std::vector<SaveFile> files;
-  std::unique_lock<std::mutex> lock(core_mutex_);
-  const SafetyMap& map = processor_->mapper().safetyMap();
-  if (map.width <= 0 || map.height <= 0) {
-    res.success = false;
-    res.message = "no map yet: no frame has been integrated since the start or the last reset";
-    return true;
-  }
-
-  // The 3D model as an OctoMap: occupied voxels occupied, voxels with negative log-odds free.
-  // OctoMap's voxels span [k l, (k + 1) l), ours are centred on k l (Eq. (1)): voxel (u, v, w)
-  // is stored as OctoMap's voxel (u, v, w), i.e. shifted by l / 2 along each axis.
-  const VoxelGrid& grid = processor_->mapper().grid();
-  const double l = grid.config().voxel_size;
   {
-    octomap::OcTree tree(l);
-    const VoxelIndex gmin = grid.minIndex();
-    for (int w = gmin.w; w < gmin.w + grid.sizeW(); ++w) {
-      for (int v = gmin.v; v < gmin.v + grid.sizeV(); ++v) {
-        for (int u = gmin.u; u < gmin.u + grid.sizeU(); ++u) {
-          const VoxelIndex i{u, v, w};
-          const bool occupied = grid.isOccupied(i);
-          if (!occupied && grid.logOdds(i) >= 0) continue;  // unknown
-          const octomap::point3d p(static_cast<float>((u + 0.5) * l),
-                                   static_cast<float>((v + 0.5) * l),
-                                   static_cast<float>((w + 0.5) * l));
-          tree.setNodeValue(
-              p, occupied ? tree.getClampingThresMaxLog() : tree.getClampingThresMinLog(), true);
-        }
-      }
-    }
-    tree.updateInnerOccupancy();
-    std::ostringstream os;
-    if (!tree.writeBinary(os)) {
-      res.success = false;
-      res.message = "OctoMap could not serialise the 3D model";
-      return true;
-    }
-    files.push_back({prefix + ".bt", "", os.str()});
+    std::lock_guard<std::mutex> lock(core_mutex_);
+    err = makeSaveFiles(processor_->mapper(), ros_config_.costs, ros_config_.fixed_frame, prefix,
+                        &files);
   }
-
-  // The safety map for map_server in `mode: raw`: each pixel is the live OccupancyGrid's value
-  // (the same cost table, core/map_costs.h; 255 = -1 unknown), so map_server serves exactly the
-  // map that was published. Row 0 of the image is the map's top (largest y). Plus a colour
-  // picture with 000 Fig. 4(a)'s colours.
-  {
-    std::vector<std::int8_t> costs;
-    const SafetyLabellingConfig& labelling = processor_->mapper().config().labelling;
-    safetyMapCosts(map, ros_config_.costs, labelling.level_slope_deg, labelling.max_slope_deg,
-                   &costs);
-    files.push_back({prefix + ".pgm", "", costsToRawPgm(costs, map.width, map.height)});
-    cv::Mat colour(map.height, map.width, CV_8UC3);
-    for (int r = 0; r < map.height; ++r) {
-      const int v = map.min_v + map.height - 1 - r;
-      for (int c = 0; c < map.width; ++c) {
-        const int u = map.min_u + c;
-        const int k = map.index(u, v);
-        const SafetyLabel label = map.labels[k];
-        const bool drop = map.drop_off[k] != 0;
-        cv::Vec3b bgr(80, 80, 80);  // Unexamined: dark grey
-        if (drop && isSafe(label)) {
-          bgr = cv::Vec3b(255, 0, 0);  // blue
-        } else if (label == SafetyLabel::kLevel) {
-          bgr = cv::Vec3b(255, 255, 255);
-        } else if (label == SafetyLabel::kInclined) {
-          bgr = cv::Vec3b(0, 255, 255);  // yellow
-        } else if (label == SafetyLabel::kNonGround) {
-          bgr = cv::Vec3b(0, 0, 0);
-        } else if (label == SafetyLabel::kUnknown) {
-          bgr = cv::Vec3b(200, 200, 200);
-        }
-        colour.at<cv::Vec3b>(r, c) = bgr;
-      }
-    }
-
-    const nav_msgs::MapMetaData info = mapMetaData(map, ros::Time());
-    std::ostringstream yaml;
-    yaml << "# Safety map of stereo_safety_map (paper 000 Sec. VI) in map_server's format.\n"
-         << "# mode: raw: every pixel is the published OccupancyGrid's value (cost table of the\n"
-         << "# README; 255 = -1 unknown). Frame: " << ros_config_.fixed_frame << ".\n"
-         << "image: " << std::filesystem::path(prefix).filename().string() << ".pgm\n"
-         << "resolution: " << info.resolution << "\n"
-         << "origin: [" << info.origin.position.x << ", " << info.origin.position.y << ", 0.0]\n"
-         << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: raw\n";
-    files.push_back({prefix + ".yaml", "", yaml.str()});
-
-    std::vector<unsigned char> png;
-    if (cv::imencode(".png", colour, png)) {
-      files.push_back({prefix + "_labels.png", "", std::string(png.begin(), png.end())});
-    }
+  if (err.empty()) {
+    std::lock_guard<std::mutex> save_lock(save_mutex_);
+    err = writeFilesAtomically(&files);
   }
-
-  lock.unlock();
-
-  std::lock_guard<std::mutex> save_lock(save_mutex_);
-  err = writeFilesAtomically(&files);
   if (!err.empty()) {
     res.success = false;
     res.message = err;
@@ -1004,24 +599,13 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
 
 void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   using diagnostic_msgs::DiagnosticStatus;
-  if (!config_error_.empty()) {
-    stat.summary(DiagnosticStatus::ERROR, "invalid configuration: " + config_error_);
-    return;
-  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max((now - window_start_).toSec(), 1e-3);
+  const double window = counts_.window(now);
   stat.add("input", ros_config_.input);
   stat.add("fixed frame", ros_config_.fixed_frame);
-  stat.addf("input rate [Hz]", "%.2f", window_received_ / window);
-  stat.addf("processed rate [Hz]", "%.2f", window_processed_ / window);
-  stat.add("frames received", frames_received_);
-  stat.add("frames processed", frames_processed_);
+  counts_.addTo(stat, window, "frames dropped (processing slower than input)", true);
   stat.add("frames skipped (stationary)", frames_stationary_);
-  stat.add("frames dropped (processing slower than input)", frames_dropped_);
-  stat.add("frames rejected (bad input)", frames_rejected_);
-  stat.add("frames dropped (missing tf)", tf_failures_);
-  stat.add("NaN / inf values skipped", non_finite_values_);
   stat.add("map resets", map_resets_);
   stat.addf("max cell age [s]", "%.1f", max_cell_age_.load());
   stat.add("cells aged to Unknown (current map)", cells_aged_);
@@ -1033,9 +617,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   const double since_used = (now - (last_used_.isZero() ? started_ : last_used_)).toSec();
   stat.addf("last input [s ago]", "%.1f", since_input);
   stat.addf("last frame used [s ago]", "%.1f", last_used_.isZero() ? -1.0 : since_used);
-  stat.addf("processing time, last [ms]", "%.1f", processing_ms_last_);
-  stat.addf("processing time, mean [ms]", "%.1f",
-            frames_processed_ > 0 ? processing_ms_sum_ / frames_processed_ : 0.0);
+  stat.addf("processing time, last [ms]", "%.1f", counts_.processing_ms_last);
+  stat.addf("processing time, mean [ms]", "%.1f", counts_.meanProcessingMs());
   stat.addf("tf wait, mean [ms]", "%.1f",
             tf_wait_count_ > 0 ? tf_wait_ms_sum_ / tf_wait_count_ : 0.0);
   stat.add("landmark filter (001 Sec. 4.2)", landmark_config_.enabled ? "on" : "off");
@@ -1047,36 +630,24 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   }
   diagnoseObstacleCue(stat);
   problems_.addTo(stat);
-  const bool recent_problem = problems_.recent(now);
   const std::string last_problem = problems_.last();
   const double stale = ros_config_.stale_input_timeout;
-  if (frames_received_ > 0 && since_input > stale) {
+  if (counts_.received > 0 && since_input > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "no input for %.1f s: the map is not updated (cells not re-observed for "
                   "max_cell_age fall back to Unknown)%s%s",
                   since_input,
                   last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
-  } else if (frames_received_ > 0 && since_used > stale) {
+  } else if (counts_.received > 0 && since_used > stale) {
     stat.summaryf(DiagnosticStatus::WARN,
                   "input arrives but no frame was used for %.1f s: the map is not updated%s%s",
                   since_used, last_problem.empty() ? "" : "; last problem: ", last_problem.c_str());
-  } else if (recent_problem) {
-    stat.summary(DiagnosticStatus::WARN, last_problem);
-  } else if (window_dropped_ > 0) {
-    stat.summaryf(DiagnosticStatus::WARN,
-                  "dropping frames: %llu of %llu in the last %.1f s (processing is slower than "
-                  "the input or max_rate)",
-                  static_cast<unsigned long long>(window_dropped_),
-                  static_cast<unsigned long long>(window_received_), window);
-  } else if (frames_received_ == 0) {
-    stat.summary(DiagnosticStatus::OK, "waiting for input");
   } else {
-    stat.summary(DiagnosticStatus::OK, "map up to date");
+    counts_.summarize(stat, problems_, now, window,
+                      "processing is slower than the input or max_rate", "waiting for input",
+                      "map up to date");
   }
-  if (window >= 1.0) {
-    window_start_ = now;
-    window_received_ = window_processed_ = window_dropped_ = 0;
-  }
+  counts_.nextWindow(now, window);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,10 +1,15 @@
-// Helpers shared by the disparity rostests: a publisher of the stereo pair of stereo_scene.h (or
-// of any frame) on <ns>/{left,right}/{image_rect,camera_info}, and reading a DisparityImage.
+// Helpers shared by the stereo rostests: a publisher of the stereo pair of stereo_scene.h (or
+// of any frame) on <ns>/{left,right}/{image_rect,camera_info}, the messages of a pair rendered by
+// dataset/renderer.h, and reading a DisparityImage.
 #pragma once
 
 #include "stereo_scene.h"
 #include "test_util.h"
 
+#include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/ros/conversions.h"
+
+#include <cv_bridge/cv_bridge.h>
 #include <dynamic_reconfigure/Reconfigure.h>
 #include <ros/ros.h>
 #include <stereo_msgs/DisparityImage.h>
@@ -21,6 +26,20 @@ struct StereoFrame {
   sensor_msgs::Image left, right;
   sensor_msgs::CameraInfo left_info, right_info;
 };
+
+/// The messages of a rectified mono8 pair (e.g. dataset::StereoRenderer's) stamped and framed by
+/// `header`, with the CameraInfo of `camera` (toCameraInfo, the one builder; for the renderer's
+/// head: dataset::stereoCameraModel(head)).
+inline StereoFrame stereoFrame(const cv::Mat& left, const cv::Mat& right,
+                               const stereo_safety_map::StereoCameraModel& camera,
+                               const std_msgs::Header& header) {
+  StereoFrame f;
+  f.left = *cv_bridge::CvImage(header, sensor_msgs::image_encodings::MONO8, left).toImageMsg();
+  f.right = *cv_bridge::CvImage(header, sensor_msgs::image_encodings::MONO8, right).toImageMsg();
+  f.left_info = stereo_safety_map::toCameraInfo(camera, false, header);
+  f.right_info = stereo_safety_map::toCameraInfo(camera, true, header);
+  return f;
+}
 
 /// The rendered scene (rendering takes a moment: do it once).
 inline const StereoFrame& sceneFrame() {

@@ -56,34 +56,6 @@ constexpr double kStep = 0.1;  // [m] per frame
 constexpr int kStandingFrames = 10;
 constexpr double kEdgeX = 4.0;
 
-sensor_msgs::Image imageMsg(const cv::Mat& img, const std_msgs::Header& h) {
-  sensor_msgs::Image m;
-  m.header = h;
-  m.height = img.rows;
-  m.width = img.cols;
-  m.encoding = "mono8";
-  m.step = static_cast<std::uint32_t>(img.cols);
-  m.data.resize(static_cast<std::size_t>(m.step) * img.rows);
-  for (int r = 0; r < img.rows; ++r)
-    std::memcpy(&m.data[static_cast<std::size_t>(r) * m.step], img.ptr(r), m.step);
-  return m;
-}
-
-sensor_msgs::CameraInfo cameraInfo(const ds::StereoHeadConfig& c, bool right,
-                                   const std_msgs::Header& h) {
-  sensor_msgs::CameraInfo ci;
-  ci.header = h;
-  ci.width = c.width;
-  ci.height = c.height;
-  ci.distortion_model = "plumb_bob";
-  ci.D.assign(5, 0.0);
-  const double f = c.fx();
-  ci.K = {f, 0, c.cx(), 0, f, c.cy(), 0, 0, 1};
-  ci.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  ci.P = {f, 0, c.cx(), right ? -f * c.baseline : 0.0, 0, f, c.cy(), 0, 0, 0, 1, 0};
-  return ci;
-}
-
 class RobotLaunch : public ::testing::Test {
  protected:
   // The drive runs once; the tests read what it left.
@@ -118,6 +90,7 @@ class RobotLaunch : public ::testing::Test {
     scene_error_ = ds::loadSceneFromFile(path, "", &sf);
     if (!scene_error_.empty()) return;
     const ds::StereoHeadConfig head = sf.camera.scaledTo(320, 240);
+    const stereo_safety_map::StereoCameraModel camera = ds::stereoCameraModel(head);
     ds::StereoRenderer renderer(sf.scene, head, sf.seed);
 
     tf2_ros::TransformBroadcaster tf;
@@ -150,12 +123,7 @@ class RobotLaunch : public ::testing::Test {
       std_msgs::Header h;
       h.stamp = t;
       h.frame_id = kOptical;
-      disparity_test::StereoFrame f;
-      f.left = imageMsg(left, h);
-      f.right = imageMsg(right, h);
-      f.left_info = cameraInfo(head, false, h);
-      f.right_info = cameraInfo(head, true, h);
-      stereo_->publish(f, t);
+      stereo_->publish(disparity_test::stereoFrame(left, right, camera, h), t);
       ++frames_;
       if (test_util::waitFor(
               [&] {

@@ -89,34 +89,6 @@ class Collector {
   int count_ = 0;
 };
 
-sensor_msgs::Image imageMsg(const cv::Mat& img, const std_msgs::Header& h) {
-  sensor_msgs::Image m;
-  m.header = h;
-  m.height = img.rows;
-  m.width = img.cols;
-  m.encoding = "mono8";
-  m.step = static_cast<std::uint32_t>(img.cols);
-  m.data.resize(static_cast<std::size_t>(m.step) * img.rows);
-  for (int r = 0; r < img.rows; ++r)
-    std::memcpy(&m.data[static_cast<std::size_t>(r) * m.step], img.ptr(r), m.step);
-  return m;
-}
-
-sensor_msgs::CameraInfo cameraInfo(const ds::StereoHeadConfig& c, bool right,
-                                   const std_msgs::Header& h) {
-  sensor_msgs::CameraInfo ci;
-  ci.header = h;
-  ci.width = c.width;
-  ci.height = c.height;
-  ci.distortion_model = "plumb_bob";
-  ci.D.assign(5, 0.0);
-  const double f = c.fx();
-  ci.K = {f, 0, c.cx(), 0, f, c.cy(), 0, 0, 1};
-  ci.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  ci.P = {f, 0, c.cx(), right ? -f * c.baseline : 0.0, 0, f, c.cy(), 0, 0, 0, 1, 0};
-  return ci;
-}
-
 /// The xy outline of a hazard primitive: a convex polygon, or a circle for a vertical cylinder.
 struct HazardShape {
   std::string name;
@@ -268,6 +240,7 @@ Result GateClosedLoop::run(const std::string& scene_name, double goal, double ma
   for (ds::Primitive& p : sf.scene.primitives)
     p.translate(offset);
   const ds::StereoHeadConfig head = sf.camera;
+  const ssm::StereoCameraModel camera = ds::stereoCameraModel(head);
   // Robustness runs: another image noise (SSM_GATE_SEED) and start (SSM_GATE_START_OFFSET [m]
   // along x, negative = farther from the hazard); CI runs the scene files as they are.
   const char* seed_env = std::getenv("SSM_GATE_SEED");
@@ -335,12 +308,7 @@ Result GateClosedLoop::run(const std::string& scene_name, double goal, double ma
                     &right);
     h.stamp = t;
     h.frame_id = kOptical;
-    disparity_test::StereoFrame f;
-    f.left = imageMsg(left, h);
-    f.right = imageMsg(right, h);
-    f.left_info = cameraInfo(head, false, h);
-    f.right_info = cameraInfo(head, true, h);
-    stereo_->publish(f, t);
+    stereo_->publish(disparity_test::stereoFrame(left, right, camera, h), t);
     if (!test_util::waitFor(
             [&] {
               auto m = maps_->last();

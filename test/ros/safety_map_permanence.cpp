@@ -142,19 +142,6 @@ bool isFreeCost(int c) {
   return c >= 0 && c < 100;
 }
 
-sensor_msgs::Image imageMsg(const cv::Mat& img, const std_msgs::Header& h) {
-  sensor_msgs::Image m;
-  m.header = h;
-  m.height = img.rows;
-  m.width = img.cols;
-  m.encoding = "mono8";
-  m.step = static_cast<std::uint32_t>(img.cols);
-  m.data.resize(static_cast<std::size_t>(m.step) * img.rows);
-  for (int r = 0; r < img.rows; ++r)
-    std::memcpy(&m.data[static_cast<std::size_t>(r) * m.step], img.ptr(r), m.step);
-  return m;
-}
-
 /// ASCII picture of the cells around the box for failure messages: x up the page, +y left.
 std::string ascii(const Maps& m, int u0, int u1, int v0, int v1) {
   static const char kCh[] = {' ', '?', '.', '/', '#'};
@@ -287,12 +274,7 @@ TEST_F(ObjectPermanence, AnObstacleStaysNonGroundUntilFreeSpaceIsObservedThere) 
     std_msgs::Header h;
     h.stamp = t;
     h.frame_id = kOptical;
-    disparity_test::StereoFrame f;
-    f.left = imageMsg(left, h);
-    f.right = imageMsg(right, h);
-    f.left_info = ssm::toCameraInfo(camera, false, h);
-    f.right_info = ssm::toCameraInfo(camera, true, h);
-    stereo_->publish(f, t);
+    stereo_->publish(disparity_test::stereoFrame(left, right, camera, h), t);
     ++frame;
     auto get = [&](MapTopics* topics, Maps* out) {
       out->grid = topics->grid.at(t);

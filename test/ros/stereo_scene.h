@@ -4,14 +4,20 @@
 // looking along +x; 320x240, f = 250 px, baseline 0.12 m. Both images are rendered by ray casting
 // from their own optical centre (so occlusions and perspective are exact), 3x3 supersampled, with
 // a 3D value-noise texture fixed to the surfaces and +-2 grey levels of sensor noise. Above the
-// floor's far edge the background is uniform grey: no texture, no true disparity.
+// floor's far edge the background is uniform grey: no texture, no true disparity. The solids are
+// the dataset's (dataset/scene.h), hit by Scene::intersect, the renderer's own intersection; only
+// the texture and noise are this file's (dataset::StereoRenderer shades and lights otherwise,
+// and the disparity rostests' thresholds are tuned to these images, pixel for pixel).
 //
 // The analytic disparity of the left image is f B / Z of the ray through each pixel centre.
 // A 5x5 px textured patch floats in that background with its own disparity (10 px): a small
 // surface that no larger surface supports, i.e. what 002 Sec. 4.2 calls a spike.
 #pragma once
 
+#include "scene_solids.h"
+
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/dataset/scene.h"
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <geometry_msgs/TransformStamped.h>
@@ -80,32 +86,39 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
   return t;
 }
 
+/// The scene in the dataset's types (dataset/scene.h): the floor a slab whose top is z = 0 over
+/// kFloorMin..kFloorMax, the box exactly at kBoxMin..kBoxMax (scene_solids.h: faces on the
+/// constants to the bit).
+inline const stereo_safety_map::dataset::Scene& scene() {
+  namespace ds = stereo_safety_map::dataset;
+  static const ds::Scene s = [] {
+    ds::Scene sc;
+    ds::Primitive floor =
+        scene_solids::alignedBox(Eigen::Vector3d(kFloorMin[0], kFloorMin[1], -1.0),
+                                 Eigen::Vector3d(kFloorMax[0], kFloorMax[1], 0.0));
+    floor.name = "floor";
+    floor.ground = true;
+    sc.add(floor);
+    ds::Primitive box =
+        scene_solids::alignedBox(Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
+                                 Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
+    box.name = "box";
+    sc.add(box);
+    return sc;
+  }();
+  return s;
+}
+
 /// Ray parameter (= optical depth, as the direction has z = 1 in the camera) of the first hit of
-/// the ray o + t d, t > 0, with the floor or the box; infinity when nothing is hit.
+/// the ray o + t d, t > 0, with the floor or the box (Scene::intersect, the renderer's);
+/// infinity when nothing is hit.
 inline double castRay(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
-  double best = std::numeric_limits<double>::infinity();
-  if (d.z() < -1e-12) {
-    const double t = -o.z() / d.z();
-    const Eigen::Vector3d p = o + t * d;
-    if (p.x() >= kFloorMin[0] && p.x() <= kFloorMax[0] && p.y() >= kFloorMin[1] &&
-        p.y() <= kFloorMax[1]) {
-      best = t;
-    }
-  }
-  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) {
-    if (std::abs(d[a]) < 1e-12) {
-      if (o[a] < kBoxMin[a] || o[a] > kBoxMax[a]) return best;
-      continue;
-    }
-    double ta = (kBoxMin[a] - o[a]) / d[a], tb = (kBoxMax[a] - o[a]) / d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1) return best;
-  }
-  if (t0 > 0.0) best = std::min(best, t0);
-  return best;
+  stereo_safety_map::dataset::Ray ray;
+  ray.origin = o;
+  ray.dir = d;
+  stereo_safety_map::dataset::Hit hit;
+  const double inf = std::numeric_limits<double>::infinity();
+  return scene().intersect(ray, 0.0, inf, &hit) ? hit.t : inf;
 }
 
 inline double hash01(std::int64_t x, std::int64_t y, std::int64_t z, std::uint32_t seed) {

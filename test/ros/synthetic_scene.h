@@ -1,10 +1,15 @@
 // A small synthetic stereo scene for the rostests, known by construction: a level floor (z = 0 in
 // odom) with a box on it, seen by a camera 1 m above the robot's base, pitched down 30 deg and
-// looking along +x. Renders the DisparityImage + CameraInfo pair and the equivalent PointCloud2
-// by ray casting, and publishes the static tf odom -> base_link -> camera.
+// looking along +x. Makes the DisparityImage + CameraInfo pair and the equivalent PointCloud2 of
+// the exact depth of each pixel, and publishes the static tf odom -> base_link -> camera. The
+// scene is built of the dataset's solids (dataset/scene.h) and intersected by Scene::intersect,
+// the code that the renderer, the laser simulator and the ground truth use.
 #pragma once
 
+#include "scene_solids.h"
+
 #include "stereo_safety_map/core/stereo_camera_model.h"
+#include "stereo_safety_map/dataset/scene.h"
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <geometry_msgs/TransformStamped.h>
@@ -68,29 +73,39 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
   return t;
 }
 
+/// The scene in the dataset's types: the floor a slab whose top is z = 0 (1 km wide: every ray
+/// down within kMaxDepth ends on it), the box exactly at kBoxMin..kBoxMax (scene_solids.h: faces
+/// on the constants to the bit).
+inline const stereo_safety_map::dataset::Scene& scene() {
+  namespace ds = stereo_safety_map::dataset;
+  static const ds::Scene s = [] {
+    ds::Scene sc;
+    ds::Primitive floor = scene_solids::alignedBox(Eigen::Vector3d(-500.0, -500.0, -1.0),
+                                                   Eigen::Vector3d(500.0, 500.0, 0.0));
+    floor.name = "floor";
+    floor.ground = true;
+    sc.add(floor);
+    ds::Primitive box =
+        scene_solids::alignedBox(Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
+                                 Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
+    box.name = "box";
+    sc.add(box);
+    return sc;
+  }();
+  return s;
+}
+
 /// Depth (optical z) of pixel (u, v) for a camera at T_odom_camera; NaN when nothing is hit
 /// within kMaxDepth.
 inline double depthAt(const Eigen::Isometry3d& T_odom_camera, double u, double v) {
-  const Eigen::Vector3d d_cam((u - kCx) / kF, (v - kCy) / kF, 1.0);  // z = 1: t is the depth
-  const Eigen::Vector3d o = T_odom_camera.translation();
-  const Eigen::Vector3d d = T_odom_camera.linear() * d_cam;
-  double best = std::numeric_limits<double>::infinity();
-  if (d.z() < -1e-9) best = -o.z() / d.z();  // floor z = 0
-  double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
-  bool hit = true;
-  for (int a = 0; a < 3 && hit; ++a) {
-    if (std::abs(d[a]) < 1e-12) {
-      hit = o[a] >= kBoxMin[a] && o[a] <= kBoxMax[a];
-    } else {
-      double ta = (kBoxMin[a] - o[a]) / d[a], tb = (kBoxMax[a] - o[a]) / d[a];
-      if (ta > tb) std::swap(ta, tb);
-      t0 = std::max(t0, ta);
-      t1 = std::min(t1, tb);
-      hit = t0 <= t1;
-    }
-  }
-  if (hit && t0 > 0.0) best = std::min(best, t0);
-  return best <= kMaxDepth ? best : std::numeric_limits<double>::quiet_NaN();
+  stereo_safety_map::dataset::Ray ray;
+  ray.origin = T_odom_camera.translation();
+  // z = 1 in the camera: the ray parameter t is the depth.
+  ray.dir = T_odom_camera.linear() * Eigen::Vector3d((u - kCx) / kF, (v - kCy) / kF, 1.0);
+  stereo_safety_map::dataset::Hit hit;
+  if (!scene().intersect(ray, 0.0, kMaxDepth, &hit))
+    return std::numeric_limits<double>::quiet_NaN();
+  return hit.t;
 }
 
 inline stereo_safety_map::StereoCameraModel cameraModel() {

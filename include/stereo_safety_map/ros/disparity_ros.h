@@ -23,7 +23,9 @@
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
 #include "stereo_safety_map/ros/disparity_params.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -118,10 +120,8 @@ class DisparityRos {
   ros::Publisher disparity_pub_;
   ros::Publisher cloud_pub_;
   image_transport::Publisher debug_pub_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
-  ros::Time last_diagnostics_time_;           ///< timer callback only
-  boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
+  boost::recursive_mutex reconfigure_mutex_;         ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
 
   // One-slot queue between the sync callback and the worker.
@@ -142,17 +142,9 @@ class DisparityRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   DisparityStats last_stats_;
   std::string matcher_in_use_;
-  double processing_ms_sum_ = 0.0;
-  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 };
 
 }  // namespace stereo_safety_map

@@ -21,6 +21,7 @@
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/msgs.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -88,8 +89,7 @@ class HybridSafetyMapRos {
   ros::Publisher labels_pub_;
   ros::Publisher laser_pub_;
   ros::ServiceServer reset_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // The core and its inputs (guarded by core_mutex_).
   std::mutex core_mutex_;

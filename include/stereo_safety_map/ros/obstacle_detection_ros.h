@@ -19,7 +19,9 @@
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
@@ -124,8 +126,7 @@ class ObstacleDetectionRos {
   ros::Publisher label_image_pub_;
   ros::Publisher obstacles_pub_;
   ros::Publisher markers_pub_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // One-slot queue between the callbacks and the worker.
   FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
@@ -141,23 +142,13 @@ class ObstacleDetectionRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
-  std::uint64_t tf_failures_ = 0;
-  std::uint64_t non_finite_values_ = 0;
-  double processing_ms_sum_ = 0.0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   double detection_ms_last_ = 0.0;
   double focal_length_last_ = 0.0;
   std::size_t valid_points_last_ = 0;
   std::size_t obstacle_points_last_ = 0;
   int accepted_last_ = 0;
   int rejected_last_ = 0;
-  std::uint64_t window_received_ = 0;
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 };
 
 }  // namespace stereo_safety_map

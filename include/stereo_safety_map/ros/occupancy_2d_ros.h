@@ -16,7 +16,9 @@
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
 
@@ -106,8 +108,7 @@ class Occupancy2DRos {
 
   ros::Publisher grid_pub_;
   ros::ServiceServer reset_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // One-slot queue between the callbacks and the worker.
   FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
@@ -125,20 +126,9 @@ class Occupancy2DRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
-  std::uint64_t tf_failures_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   std::uint64_t map_resets_ = 0;
-  std::uint64_t non_finite_values_ = 0;
   Grid2DUpdateStats last_update_;
-  double processing_ms_last_ = 0.0;
-  double processing_ms_sum_ = 0.0;
-  std::uint64_t window_received_ = 0;
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 };
 
 }  // namespace stereo_safety_map

@@ -23,6 +23,7 @@
 #include "stereo_safety_map/core/safety_gate.h"
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/ros/msgs.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/safety_gate_params.h"
 
@@ -83,8 +84,7 @@ class SafetyGateRos {
   ros::Publisher state_pub_;
   ros::Publisher markers_pub_;
   ros::Timer watchdog_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::Timer diagnostics_timer_;
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // Guarded by mutex_.
   std::mutex mutex_;

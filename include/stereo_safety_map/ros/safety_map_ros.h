@@ -2,7 +2,9 @@
 // point per frame (core/stereo_frame_processor.h: reprojection, landmark filter, mapper of paper
 // 000 Sec. IV-VI, obstacle cue) and its results into messages; the offline evaluators call the
 // same entry point. Wrapped by
-// src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet).
+// src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet). Implemented in
+// src/ros/safety_map_inputs.cpp (the callbacks up to the slot), src/ros/safety_map_ros.cpp (the
+// rest) and ros/safety_map_export.h (~save's files).
 //
 // Threading model. Message callbacks run on the nodelet manager's thread pool. Each subscriber
 // callback first checks its message on its own (structure, values: conversions.h check*(), no
@@ -43,7 +45,9 @@
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/exact_stamp_matcher.h"
+#include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
+#include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/params.h"
 #include "stereo_safety_map/ros/problem_log.h"
@@ -197,9 +201,7 @@ class SafetyMapRos {
   ros::Publisher obstacles_pub_;  ///< safety_obstacles: the lethal cells as points
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
-  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
-  ros::WallTimer diagnostics_timer_;
-  ros::Time last_diagnostics_time_;  ///< timer callback only
+  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
   ros::WallTimer age_timer_;
   boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
   std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
@@ -245,30 +247,19 @@ class SafetyMapRos {
 
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
-  std::uint64_t frames_received_ = 0;
-  std::uint64_t frames_processed_ = 0;
+  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
   std::uint64_t frames_stationary_ = 0;
-  std::uint64_t frames_dropped_ = 0;
-  std::uint64_t frames_rejected_ = 0;
-  std::uint64_t tf_failures_ = 0;
   std::uint64_t map_resets_ = 0;
   std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
   ros::WallTime last_arrival_;  ///< last disparity / cloud message received
   ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
-  std::uint64_t non_finite_values_ = 0;      ///< NaN / inf pixels or points skipped
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
   double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
   double landmark_ms_last_ = 0.0;
   std::size_t landmarks_permanent_ = 0;
-  double processing_ms_last_ = 0.0;
-  double processing_ms_sum_ = 0.0;
   double tf_wait_ms_sum_ = 0.0;
   std::uint64_t tf_wait_count_ = 0;
-  std::uint64_t window_received_ = 0;  ///< since the last diagnostics update
-  std::uint64_t window_processed_ = 0;
-  std::uint64_t window_dropped_ = 0;
-  ros::WallTime window_start_;
 
   // Obstacle cue (~obstacle_cue): the labelled obstacle points of ObstacleDetectionNodelet (paper
   // 003) mark their cells Non-ground in the next map (the processor's cue stage,
