@@ -30,8 +30,9 @@
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <rosbag/bag.h>

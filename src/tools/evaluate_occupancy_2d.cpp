@@ -41,8 +41,9 @@
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/dataset/ground_truth.h"
 #include "stereo_safety_map/dataset/scene_loader.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
 #include <yaml-cpp/yaml.h>
 
