@@ -79,6 +79,12 @@ class Json {
     key(k);
     return val(v);
   }
+  /// `k`: v written as a number (%.6g) whatever its type, counts included (evaluate_obstacles'
+  /// metrics.json has always written its counts so).
+  Json& num(const std::string& k, double v) {
+    key(k);
+    return val(v);
+  }
 
  private:
   void sep() {
