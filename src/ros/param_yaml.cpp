@@ -79,4 +79,18 @@ std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConf
   return stereoFrameProcessorFields().validate(*c);
 }
 
+std::string loadCoreParams(const std::vector<std::string>& files,
+                           const std::vector<std::string>& assignments,
+                           StereoFrameProcessorConfig* c) {
+  for (const std::string& f : files) {
+    const std::string e = loadCoreParams(f, c);
+    if (!e.empty()) return e;
+  }
+  for (const std::string& a : assignments) {
+    const std::string e = setCoreParam(a, c);
+    if (!e.empty()) return e;
+  }
+  return "";
+}
+
 }  // namespace stereo_safety_map

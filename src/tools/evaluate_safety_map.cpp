@@ -1443,15 +1443,8 @@ int main(int argc, char** argv) {
     command += std::string(" ") + argv[i];
 
   ssm::StereoFrameProcessorConfig config;
-  for (const std::string& p : opt.params) {
-    const std::string e = ssm::loadCoreParams(p, &config);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 2;
-    }
-  }
-  for (const std::string& a : opt.sets) {
-    const std::string e = ssm::setCoreParam(a, &config);
+  {
+    const std::string e = ssm::loadCoreParams(opt.params, opt.sets, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;

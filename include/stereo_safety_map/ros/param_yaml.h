@@ -64,5 +64,10 @@ std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* 
 /// One `key=value` (same keys as the file; also the disparity stage's: matcher, block_size,
 /// enable_texture, ...). Empty on success.
 std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c);
+/// The tools' `--params FILE ...` then `--set key=value ...`: loadCoreParams for each file in
+/// order, then setCoreParam for each assignment. Empty on success, else the first error.
+std::string loadCoreParams(const std::vector<std::string>& files,
+                           const std::vector<std::string>& assignments,
+                           StereoFrameProcessorConfig* c);
 
 }  // namespace stereo_safety_map
