@@ -1,5 +1,7 @@
 #include "stereo_safety_map/ros/param_yaml.h"
 
+#include "stereo_safety_map/core/config_fields.h"
+
 #include <climits>
 #include <exception>
 
@@ -54,6 +56,39 @@ std::string parseAssignment(const std::string& assignment, YAML::Node* root) {
     (*root)[assignment.substr(0, eq)] = YAML::Load(assignment.substr(eq + 1));
   } catch (const std::exception& e) {
     return "--set " + assignment + ": " + e.what();
+  }
+  return "";
+}
+
+std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c) {
+  YAML::Node root;
+  std::string e = loadYamlMap(path, &root);
+  // Keys of the nodelets' own settings (frames, queues, ...) are not the core's: ignored.
+  if (e.empty()) e = applyYamlFields(root, stereoFrameProcessorFields(), c, path);
+  return e.empty() ? stereoFrameProcessorFields().validate(*c) : e;
+}
+
+std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c) {
+  YAML::Node root;
+  std::string e = parseAssignment(assignment, &root);
+  if (!e.empty()) return e;
+  std::vector<std::string> unknown;
+  e = applyYamlFields(root, stereoFrameProcessorFields(), c, "--set", &unknown);
+  if (!e.empty()) return e;
+  if (!unknown.empty()) return "--set: unknown core parameter " + unknown.front();
+  return stereoFrameProcessorFields().validate(*c);
+}
+
+std::string loadCoreParams(const std::vector<std::string>& files,
+                           const std::vector<std::string>& assignments,
+                           StereoFrameProcessorConfig* c) {
+  for (const std::string& f : files) {
+    const std::string e = loadCoreParams(f, c);
+    if (!e.empty()) return e;
+  }
+  for (const std::string& a : assignments) {
+    const std::string e = setCoreParam(a, c);
+    if (!e.empty()) return e;
   }
   return "";
 }

@@ -30,8 +30,9 @@
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <rosbag/bag.h>
@@ -765,15 +766,8 @@ int main(int argc, char** argv) {
     command += std::string(" ") + argv[i];
 
   ssm::StereoFrameProcessorConfig config;
-  for (const std::string& p : opt.params) {
-    const std::string e = ssm::loadCoreParams(p, &config);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 2;
-    }
-  }
-  for (const std::string& a : opt.sets) {
-    const std::string e = ssm::setCoreParam(a, &config);
+  {
+    const std::string e = ssm::loadCoreParams(opt.params, opt.sets, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;

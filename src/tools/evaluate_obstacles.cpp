@@ -38,8 +38,11 @@
 #include "stereo_safety_map/core/obstacle_cue.h"
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/boards.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/json.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -264,15 +267,6 @@ bool inside(const GtBox& b, const Eigen::Vector3d& p, double margin) {
   const Eigen::Vector3d t = b.rt * (p - b.center);
   return std::abs(t.x()) <= b.half.x() + margin && std::abs(t.y()) <= b.half.y() + margin &&
          std::abs(t.z()) <= b.half.z() + margin;
-}
-
-bool boardInView(const ssm::BoardBox& b, const Eigen::Isometry3d& T_fixed_sensor,
-                 const ssm::StereoCameraModel& cam) {
-  // As evaluate_safety_map: the board's centre projects into the image.
-  const Eigen::Vector3d p = T_fixed_sensor.inverse() * b.center;
-  if (p.z() <= 0.1) return false;
-  const double x = cam.fx * p.x() / p.z() + cam.cx, y = cam.fy * p.y() / p.z() + cam.cy;
-  return x >= 0 && x < cam.width && y >= 0 && y < cam.height;
 }
 
 // Scores one detection result of one frame against the GT boxes and labels.
@@ -512,7 +506,7 @@ std::string evaluateBag(const std::string& bag, bool latency_only, const Options
     for (std::size_t b = 0; b < ds.boards.size(); ++b) {
       Latency& l = res->latency[b];
       if (l.appear < 0) {
-        if (!boardInView(ds.boards[b].box, frame.T_fixed_sensor, frame.camera)) continue;
+        if (!ssm::boardInView(ds.boards[b].box, frame.T_fixed_sensor, frame.camera)) continue;
         l.appear = index_in_bag;
       }
       const ssm::BoardBox& box = ds.boards[b].box;
@@ -558,72 +552,20 @@ std::string frames(int n) {
   return n < 0 ? std::string("never") : std::to_string(n);
 }
 
-// Minimal JSON writer.
-class Json {
- public:
-  explicit Json(std::ostream& os) : os_(os) {}
-  Json& open(char c) {
-    sep();
-    os_ << c;
-    first_ = true;
-    return *this;
-  }
-  Json& close(char c) {
-    os_ << c;
-    first_ = false;
-    return *this;
-  }
-  Json& key(const std::string& k) {
-    sep();
-    os_ << '"' << k << "\": ";
-    first_ = true;
-    return *this;
-  }
-  Json& num(double v) {
-    sep();
-    if (std::isfinite(v)) {
-      char buf[32];
-      std::snprintf(buf, sizeof(buf), "%.6g", v);
-      os_ << buf;
-    } else {
-      os_ << "null";
-    }
-    return *this;
-  }
-  Json& str(const std::string& s) {
-    sep();
-    os_ << '"';
-    for (char c : s) {
-      if (c == '"' || c == '\\') os_ << '\\';
-      os_ << c;
-    }
-    os_ << '"';
-    return *this;
-  }
-  Json& kv(const std::string& k, double v) { return key(k).num(v); }
-  Json& kv(const std::string& k, const std::string& v) { return key(k).str(v); }
-
- private:
-  void sep() {
-    if (!first_) os_ << ", ";
-    first_ = false;
-  }
-  std::ostream& os_;
-  bool first_ = true;
-};
+using stereo_safety_map::tools::Json;  // stereo_safety_map/tools/json.h
 
 void methodJson(Json& j, const std::string& name, const MethodScore& m) {
   j.key(name).open('{');
-  j.kv("in_view", m.instances).kv("detected", m.detected).kv("recall", m.recall());
-  j.kv("point_recall", m.pointRecall()).kv("points", m.points).kv("points_in_box", m.in_box);
-  j.kv("precision", m.precision()).kv("points_gt_nonground", m.gt_nonground);
-  j.kv("points_gt_edge", m.gt_edge).kv("points_gt_safe", m.gt_safe);
-  j.kv("points_gt_unknown", m.gt_unknown);
-  j.kv("ms_mean", m.ms.mean()).kv("ms_p95", m.ms.quantile(0.95));
+  j.num("in_view", m.instances).num("detected", m.detected).num("recall", m.recall());
+  j.num("point_recall", m.pointRecall()).num("points", m.points).num("points_in_box", m.in_box);
+  j.num("precision", m.precision()).num("points_gt_nonground", m.gt_nonground);
+  j.num("points_gt_edge", m.gt_edge).num("points_gt_safe", m.gt_safe);
+  j.num("points_gt_unknown", m.gt_unknown);
+  j.num("ms_mean", m.ms.mean()).num("ms_p95", m.ms.quantile(0.95));
   j.key("by_type").open('{');
   for (const auto& kv : m.by_type) {
     j.key(kv.first).open('{');
-    j.kv("in_view", kv.second.first).kv("detected", kv.second.second).close('}');
+    j.num("in_view", kv.second.first).num("detected", kv.second.second).close('}');
   }
   j.close('}').close('}');
 }
@@ -806,34 +748,38 @@ int main(int argc, char** argv) {
   // metrics.json
   {
     std::ofstream f(opt.out + "/metrics.json");
-    Json j(f);
+    Json j;
     j.open('{');
     j.key("settings").open('{');
-    j.kv("max_range", opt.max_range).kv("min_visible", opt.min_visible);
-    j.kv("min_fraction", opt.min_fraction).kv("margin", opt.margin);
-    j.kv("height_threshold", ocfg.height_threshold).kv("max_height", ocfg.max_height);
-    j.kv("slope_threshold_deg", ocfg.slope_threshold_deg);
-    j.kv("cue_lifetime", ccfg.cue.lifetime).kv("cue_min_points", ccfg.cue.min_points_per_cell);
+    j.num("max_range", opt.max_range).num("min_visible", opt.min_visible);
+    j.num("min_fraction", opt.min_fraction).num("margin", opt.margin);
+    j.num("height_threshold", ocfg.height_threshold).num("max_height", ocfg.max_height);
+    j.num("slope_threshold_deg", ocfg.slope_threshold_deg);
+    j.num("cue_lifetime", ccfg.cue.lifetime).num("cue_min_points", ccfg.cue.min_points_per_cell);
     j.close('}');
     j.key("datasets").open('[');
     for (const DatasetResult& r : results) {
-      j.open('{').kv("name", r.name).kv("latency_only", r.latency_only ? 1.0 : 0.0);
-      j.kv("pairs", r.pairs).kv("frames", r.used).kv("maps", r.integrated).kv("seeded", r.seeded);
+      j.open('{').kv("name", r.name).num("latency_only", r.latency_only ? 1.0 : 0.0);
+      j.num("pairs", r.pairs)
+          .num("frames", r.used)
+          .num("maps", r.integrated)
+          .num("seeded", r.seeded);
       if (!r.latency_only) {
         methodJson(j, "3d", r.m3d);
         methodJson(j, "columnwise", r.col);
         const ssm::ErrorRates a = ssm::errorRates(r.map_plain), b = ssm::errorRates(r.map_cue);
-        j.key("map").open('{').kv("fn_rate", a.fn).kv("fp_rate", a.fp);
-        j.kv("fn_rate_cue", b.fn).kv("fp_rate_cue", b.fp);
-        j.kv("cue_cells_changed", r.cue_cells_changed);
-        j.kv("cue_safe_cells_changed", r.cue_safe_cells_changed).close('}');
+        j.key("map").open('{').num("fn_rate", a.fn).num("fp_rate", a.fp);
+        j.num("fn_rate_cue", b.fn).num("fp_rate_cue", b.fp);
+        j.num("cue_cells_changed", r.cue_cells_changed);
+        j.num("cue_safe_cells_changed", r.cue_safe_cells_changed).close('}');
       }
       j.key("latency").open('[');
       for (const Latency& l : r.latency) {
-        j.open('{').kv("board", l.board).kv("frames", l.grid.size());
-        j.kv("grid_50", l.frames(l.grid, 0.5)).kv("grid_90", l.frames(l.grid, 0.9));
-        j.kv("cue_50", l.frames(l.cue, 0.5)).kv("cue_90", l.frames(l.cue, 0.9));
-        j.kv("cue_lagged_50", l.frames(l.lagged, 0.5)).kv("cue_lagged_90", l.frames(l.lagged, 0.9));
+        j.open('{').kv("board", l.board).num("frames", l.grid.size());
+        j.num("grid_50", l.frames(l.grid, 0.5)).num("grid_90", l.frames(l.grid, 0.9));
+        j.num("cue_50", l.frames(l.cue, 0.5)).num("cue_90", l.frames(l.cue, 0.9));
+        j.num("cue_lagged_50", l.frames(l.lagged, 0.5))
+            .num("cue_lagged_90", l.frames(l.lagged, 0.9));
         j.close('}');
       }
       j.close(']').close('}');
@@ -846,7 +792,7 @@ int main(int argc, char** argv) {
       j.close('}');
     }
     j.close('}');
-    f << "\n";
+    f << j.str() << "\n";
   }
 
   // Summary on stdout.

@@ -41,8 +41,10 @@
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/dataset/ground_truth.h"
 #include "stereo_safety_map/dataset/scene_loader.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/boards.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -321,24 +323,6 @@ std::string computeCauses(const ssm::Dataset& d, const std::string& scenes_dir, 
 // ---------------------------------------------------------------------------------------------
 // Latency helpers (000 Sec. VII-B, as evaluate_safety_map counts them).
 
-bool boardInView(const ssm::BoardBox& b, const Eigen::Isometry3d& T_fixed_sensor,
-                 const ssm::StereoCameraModel& cam) {
-  const Eigen::Vector3d p = T_fixed_sensor.inverse() * b.center;
-  if (p.z() <= 0.1) return false;
-  const double x = cam.fx * p.x() / p.z() + cam.cx, y = cam.fy * p.y() / p.z() + cam.cy;
-  return x >= 0 && x < cam.width && y >= 0 && y < cam.height;
-}
-
-double distanceToBoardFace(const ssm::BoardBox& b, const Eigen::Vector3d& camera) {
-  int thin = 0;
-  for (int k = 1; k < 3; ++k)
-    if (b.half_size[k] < b.half_size[thin]) thin = k;
-  const Eigen::Vector3d n = b.rotation.col(thin);
-  Eigen::Vector3d d = b.center - camera;
-  d.z() = 0.0;
-  return std::abs(d.dot(n)) - b.half_size[thin];
-}
-
 void finishLatency(std::vector<Latency>* v) {
   for (Latency& l : *v) {
     l.frames_to_50 = ssm::framesUntilCoverage(l.coverage, 0.5);
@@ -508,18 +492,18 @@ std::string evaluateDataset(const Options& opt, const Setup& setup, const std::s
       for (int i = 0; i < kNumVariants; ++i) {
         Latency& l = res->grid[i].latency[b];
         if (l.appear_frame < 0) {
-          if (!boardInView(box, frame.T_fixed_sensor, frame.camera)) continue;
+          if (!ssm::boardInView(box, frame.T_fixed_sensor, frame.camera)) continue;
           l.appear_frame = camera_frames;
-          l.start_distance = distanceToBoardFace(box, frame.T_fixed_sensor.translation());
+          l.start_distance = ssm::distanceToBoardFace(box, frame.T_fixed_sensor.translation());
         }
         l.coverage.push_back(ssm::boardWidthCoverage2D(*grids[i], box).fraction());
       }
       if (safety) {
         Latency& l = res->safety.latency[b];
         if (l.appear_frame < 0) {
-          if (!boardInView(box, frame.T_fixed_sensor, frame.camera)) continue;
+          if (!ssm::boardInView(box, frame.T_fixed_sensor, frame.camera)) continue;
           l.appear_frame = camera_frames;
-          l.start_distance = distanceToBoardFace(box, frame.T_fixed_sensor.translation());
+          l.start_distance = ssm::distanceToBoardFace(box, frame.T_fixed_sensor.translation());
         }
         l.coverage.push_back(ssm::boardWidthCoverage(safety->mapper().grid(), box).fraction());
       }

@@ -27,8 +27,9 @@
 #include "stereo_safety_map/dataset/degradation.h"
 #include "stereo_safety_map/dataset/open_world.h"
 #include "stereo_safety_map/dataset/procedural_scene.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
-#include "tool_support/json.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/json.h"
 
 #include <algorithm>
 #include <atomic>

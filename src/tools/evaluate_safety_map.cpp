@@ -27,9 +27,11 @@
 #include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/dataset/ground_truth.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/msgs.h"
-#include "tool_support/json.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/boards.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/json.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -422,25 +424,6 @@ cv::Mat render3dModel(const ssm::SafetyMapper& mapper, const Eigen::Vector3d& ro
 // ---------------------------------------------------------------------------------------------
 // Bag reading
 
-bool boardInView(const ssm::BoardBox& b, const Eigen::Isometry3d& T_fixed_sensor,
-                 const ssm::StereoCameraModel& cam) {
-  const Eigen::Vector3d p = T_fixed_sensor.inverse() * b.center;
-  if (p.z() <= 0.1) return false;
-  const double x = cam.fx * p.x() / p.z() + cam.cx, y = cam.fy * p.y() / p.z() + cam.cy;
-  return x >= 0 && x < cam.width && y >= 0 && y < cam.height;
-}
-
-double distanceToBoardFace(const ssm::BoardBox& b, const Eigen::Vector3d& camera) {
-  // Distance along the horizontal from the optical centre to the nearer face of the board.
-  int thin = 0;
-  for (int k = 1; k < 3; ++k)
-    if (b.half_size[k] < b.half_size[thin]) thin = k;
-  const Eigen::Vector3d n = b.rotation.col(thin);
-  Eigen::Vector3d d = b.center - camera;
-  d.z() = 0.0;
-  return std::abs(d.dot(n)) - b.half_size[thin];
-}
-
 // ---------------------------------------------------------------------------------------------
 // Offline evaluation: the core on each stereo pair of each dataset, one mapper per decr value.
 
@@ -757,9 +740,10 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
         for (std::size_t b = 0; b < ds.boards.size(); ++b) {
           LatencyResult& l = res.latency[b];
           if (l.appear_frame < 0) {
-            if (!boardInView(ds.boards[b].box, T_fixed_sensor, cam)) continue;
+            if (!ssm::boardInView(ds.boards[b].box, T_fixed_sensor, cam)) continue;
             l.appear_frame = static_cast<int>(res.frames.size());
-            l.start_distance = distanceToBoardFace(ds.boards[b].box, T_fixed_sensor.translation());
+            l.start_distance =
+                ssm::distanceToBoardFace(ds.boards[b].box, T_fixed_sensor.translation());
           }
           l.coverage.push_back(
               ssm::boardWidthCoverage(s.processor->mapper().grid(), ds.boards[b].box).fraction());
@@ -1459,15 +1443,8 @@ int main(int argc, char** argv) {
     command += std::string(" ") + argv[i];
 
   ssm::StereoFrameProcessorConfig config;
-  for (const std::string& p : opt.params) {
-    const std::string e = ssm::loadCoreParams(p, &config);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 2;
-    }
-  }
-  for (const std::string& a : opt.sets) {
-    const std::string e = ssm::setCoreParam(a, &config);
+  {
+    const std::string e = ssm::loadCoreParams(opt.params, opt.sets, &config);
     if (!e.empty()) {
       std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;

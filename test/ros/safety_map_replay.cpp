@@ -7,8 +7,9 @@
 #include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/msgs.h"
+#include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
 #include <gtest/gtest.h>
 #include <ros/ros.h>

@@ -8,7 +8,6 @@
 #include "../core/param_field_checks.h"
 
 #include "stereo_safety_map/core/config_fields.h"
-#include "stereo_safety_map/ros/dataset_reader.h"
 #include "stereo_safety_map/ros/disparity_params.h"
 #include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/nodelet_params.h"

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "stereo_safety_map/core/param_fields.h"
+#include "stereo_safety_map/core/stereo_frame_processor.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -50,5 +51,23 @@ std::string applyYamlFields(const YAML::Node& root, const ParamFieldList<Config>
   }
   return "";
 }
+
+// ---------------------------------------------------------------------------------------------
+// The core's configuration from the nodelets' flat keys, so that the offline tools (evaluators,
+// bench, tests) run what the nodelets run.
+
+/// Applies the keys of the YAML file that name core parameters (the fields of
+/// core/config_fields.h's stereoFrameProcessorFields(); others, the nodelets' own settings, are
+/// ignored) and validates. Takes config/safety_map.yaml and config/disparity.yaml (the disparity
+/// nodelet's matcher and post-filters). Empty on success.
+std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c);
+/// One `key=value` (same keys as the file; also the disparity stage's: matcher, block_size,
+/// enable_texture, ...). Empty on success.
+std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c);
+/// The tools' `--params FILE ...` then `--set key=value ...`: loadCoreParams for each file in
+/// order, then setCoreParam for each assignment. Empty on success, else the first error.
+std::string loadCoreParams(const std::vector<std::string>& files,
+                           const std::vector<std::string>& assignments,
+                           StereoFrameProcessorConfig* c);
 
 }  // namespace stereo_safety_map

@@ -1,10 +1,13 @@
 // Reading the package's benchmark datasets (bags made by make_dataset) without a roscore, for the
 // offline tools (evaluation, benchmarks): the ground truth of a dataset, the stereo pairs of its
-// bag with the camera model, camera pose and robot position from the bag's tf, and the nodelet's
-// flat parameter file applied to the core's configuration.
+// bag with the camera model, camera pose and robot position from the bag's tf. The nodelets' flat
+// parameter files are applied to the core's configuration by ros/param_yaml.h (loadCoreParams,
+// setCoreParam), the one YAML reader of the field lists.
 //
-// Every offline tool goes through this one reader, so that all of them see exactly the frames,
-// poses and parameters the safety-map nodelet sees (ARCHITECTURE.md: one code path).
+// Every offline tool goes through this one reader, so that all of them see exactly the frames
+// and poses the safety-map nodelet sees (DEVELOPERS.md: how a frame flows). Tool support: built
+// into the stereo_safety_map_tools library (src/tools/tool_support/), which the tools and the
+// tests that replay a dataset link; it may use the ROS layer, never the other way round.
 #pragma once
 
 #include "stereo_safety_map/core/evaluation_metrics.h"
@@ -137,19 +140,6 @@ class StereoBagReader {
 
 /// Heading of a camera's optical axis projected on the ground [rad].
 double yawOfOpticalAxis(const Eigen::Isometry3d& T_fixed_sensor);
-
-// ---------------------------------------------------------------------------------------------
-// Parameters: the nodelet's flat keys (config/safety_map.yaml) applied to the core's
-// configuration, so that the offline tools run what the nodelet runs.
-
-/// Applies the keys of the YAML file that name core parameters (the fields of
-/// core/config_fields.h's stereoFrameProcessorFields(); others, the nodelets' own settings, are
-/// ignored) and validates. Takes config/safety_map.yaml and config/disparity.yaml (the disparity
-/// nodelet's matcher and post-filters). Empty on success.
-std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c);
-/// One `key=value` (same keys as the file; also the disparity stage's: matcher, block_size,
-/// enable_texture, ...). Empty on success.
-std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c);
 
 // ---------------------------------------------------------------------------------------------
 // Small file helpers for the tools.

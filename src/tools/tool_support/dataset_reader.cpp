@@ -1,8 +1,6 @@
-#include "stereo_safety_map/ros/dataset_reader.h"
+#include "stereo_safety_map/tools/dataset_reader.h"
 
-#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/param_yaml.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -297,31 +295,6 @@ bool StereoBagReader::next(StereoBagFrame* f) {
     return true;
   }
   return false;
-}
-
-// ---------------------------------------------------------------------------------------------
-
-std::string loadCoreParams(const std::string& path, StereoFrameProcessorConfig* c) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const std::exception& e) {
-    return "cannot read " + path + ": " + e.what();
-  }
-  // Keys of the nodelets' own settings (frames, queues, ...) are not the core's: ignored.
-  const std::string e = applyYamlFields(root, stereoFrameProcessorFields(), c, path);
-  return e.empty() ? stereoFrameProcessorFields().validate(*c) : e;
-}
-
-std::string setCoreParam(const std::string& assignment, StereoFrameProcessorConfig* c) {
-  YAML::Node root;
-  std::string e = parseAssignment(assignment, &root);
-  if (!e.empty()) return e;
-  std::vector<std::string> unknown;
-  e = applyYamlFields(root, stereoFrameProcessorFields(), c, "--set", &unknown);
-  if (!e.empty()) return e;
-  if (!unknown.empty()) return "--set: unknown core parameter " + unknown.front();
-  return stereoFrameProcessorFields().validate(*c);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,5 +1,7 @@
-// The command-line tools' JSON writer (metrics.json of the evaluators and the bench): objects,
-// arrays, numbers (NaN / inf as null), integers, booleans, strings. Header-only.
+// The command-line tools' one JSON writer (metrics.json of the evaluators, bench_pipeline's
+// --json): objects, arrays, numbers (%.6g; NaN / inf as null), integers, booleans, strings, null.
+// Compact (one line) by default; `Json(true)` puts every member on its own line, indented by two
+// spaces a level (bench.json). Header-only.
 #pragma once
 
 #include <cmath>
@@ -13,14 +15,18 @@ namespace tools {
 
 class Json {
  public:
+  explicit Json(bool pretty = false) : pretty_(pretty) {}
   std::string str() const { return os_.str(); }
   Json& open(char c) {
     sep();
     os_ << c;
     first_ = true;
+    ++depth_;
     return *this;
   }
   Json& close(char c) {
+    --depth_;
+    if (pretty_) newline();
     os_ << c;
     first_ = false;
     return *this;
@@ -49,6 +55,7 @@ class Json {
     os_ << v;
     return *this;
   }
+  Json& val(long v) { return val(static_cast<long long>(v)); }
   Json& val(int v) { return val(static_cast<long long>(v)); }
   Json& val(std::uint64_t v) { return val(static_cast<long long>(v)); }
   Json& val(bool v) {
@@ -62,8 +69,19 @@ class Json {
     return *this;
   }
   Json& val(const char* s) { return val(std::string(s)); }
+  Json& null() {
+    sep();
+    os_ << "null";
+    return *this;
+  }
   template <typename T>
   Json& kv(const std::string& k, const T& v) {
+    key(k);
+    return val(v);
+  }
+  /// `k`: v written as a number (%.6g) whatever its type, counts included (evaluate_obstacles'
+  /// metrics.json has always written its counts so).
+  Json& num(const std::string& k, double v) {
     key(k);
     return val(v);
   }
@@ -75,9 +93,11 @@ class Json {
       first_ = false;
       return;
     }
-    if (!first_) os_ << ", ";
+    if (!first_) os_ << (pretty_ ? "," : ", ");
+    if (pretty_ && depth_ > 0) newline();
     first_ = false;
   }
+  void newline() { os_ << '\n' << std::string(2 * static_cast<std::size_t>(depth_), ' '); }
   void quote(const std::string& s) {
     os_ << '"';
     for (char c : s) {
@@ -94,6 +114,8 @@ class Json {
     os_ << '"';
   }
   std::ostringstream os_;
+  bool pretty_ = false;
+  int depth_ = 0;
   bool first_ = true;
   bool after_key_ = false;
 };
