@@ -33,6 +33,7 @@
 #include "stereo_safety_map/ros/hybrid_conversions.h"
 #include "stereo_safety_map/ros/param_yaml.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/json.h"
 
 #include <cv_bridge/cv_bridge.h>
 #include <rosbag/bag.h>
@@ -732,24 +733,17 @@ std::string fmt(double v, int digits = 2) {
 std::string pct(double v, int digits = 1) {
   return std::isfinite(v) ? fmt(100.0 * v, digits) + " %" : "n/a";
 }
-std::string jnum(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream os;
-  os << std::setprecision(6) << v;
-  return os.str();
-}
 double ratio(std::uint64_t a, std::uint64_t b) {
   return b > 0 ? static_cast<double>(a) / b : kNaN;
 }
 
-std::string countsJson(const ConfusionCounts& c) {
+using stereo_safety_map::tools::Json;  // tools/json.h
+
+// 001's A, B, C: safe in both, safe in the map only, safe in the ground truth only.
+void jsonCounts(Json& j, const std::string& k, const ConfusionCounts& c) {
   const ssm::SafeClassScores s = ssm::safeClassScores(c);
-  std::ostringstream os;
-  // 001's A, B, C: safe in both, safe in the map only, safe in the ground truth only.
-  os << "{\"A\": " << c.tn << ", \"B\": " << c.fn << ", \"C\": " << c.fp
-     << ", \"unsafe_both\": " << c.tp << ", \"precision\": " << jnum(s.precision)
-     << ", \"recall\": " << jnum(s.recall) << ", \"f1\": " << jnum(s.f1) << "}";
-  return os.str();
+  j.key(k).open('{').kv("A", c.tn).kv("B", c.fn).kv("C", c.fp).kv("unsafe_both", c.tp);
+  j.kv("precision", s.precision).kv("recall", s.recall).kv("f1", s.f1).close('}');
 }
 
 }  // namespace
@@ -824,67 +818,78 @@ int main(int argc, char** argv) {
     }
   }
 
-  // ---- JSON
-  std::ostringstream j;
-  j << "{\n  \"command\": \"" << command << "\",\n  \"wall_s\": " << jnum(wall_s)
-    << ",\n  \"paper_table2\": {\"laser\": [0.78, 0.99, 0.87], \"stereo\": [0.94, 0.86, 0.90], "
-       "\"merged\": [0.94, 0.89, 0.92]},\n  \"table2\": {";
-  for (int s = 0; s < kSources; ++s) {
-    j << (s ? ", " : "") << "\"" << kSourceNames[s] << "\": {\"own\": " << countsJson(total_own[s])
-      << ", \"common\": " << countsJson(total_common[s]) << "}";
+  // ---- JSON (its layout: one line per top-level member and per dataset)
+  Json j;
+  j.open('{').wrap(2).kv("command", command).wrap(2).kv("wall_s", wall_s);
+  // 001 Table 2's precision / recall / F1, as the paper prints them.
+  const char* const paper_table2[3][3] = {
+      {"0.78", "0.99", "0.87"}, {"0.94", "0.86", "0.90"}, {"0.94", "0.89", "0.92"}};
+  j.wrap(2).key("paper_table2").open('{');
+  for (int s = 0; s < 3; ++s) {
+    j.key(kSourceNames[s]).open('[');
+    for (const char* v : paper_table2[s])
+      j.raw(v);
+    j.close(']');
   }
-  j << "},\n  \"datasets\": [";
+  j.close('}');
+  j.wrap(2).key("table2").open('{');
+  for (int s = 0; s < kSources; ++s) {
+    j.key(kSourceNames[s]).open('{');
+    jsonCounts(j, "own", total_own[s]);
+    jsonCounts(j, "common", total_common[s]);
+    j.close('}');
+  }
+  j.close('}');
+  j.wrap(2).key("datasets").open('[');
   for (std::size_t k = 0; k < fusion.size(); ++k) {
     const FusionResult& r = fusion[k];
-    j << (k ? "," : "") << "\n    {\"name\": \"" << r.name
-      << "\", \"in_table2\": " << (k < opt.bags.size() ? "true" : "false")
-      << ", \"pairs\": " << r.pairs << ", \"integrated\": " << r.integrated
-      << ", \"scans\": " << r.scans << ", \"laser_z\": " << jnum(r.laser_z);
+    j.wrap(4).open('{').kv("name", r.name).kv("in_table2", k < opt.bags.size());
+    j.kv("pairs", r.pairs).kv("integrated", r.integrated).kv("scans", r.scans);
+    j.kv("laser_z", r.laser_z);
     for (int s = 0; s < kSources; ++s) {
-      j << ", \"" << kSourceNames[s] << "\": {\"own\": " << countsJson(r.own[s])
-        << ", \"common\": " << countsJson(r.common[s]);
+      j.key(kSourceNames[s]).open('{');
+      jsonCounts(j, "own", r.own[s]);
+      jsonCounts(j, "common", r.common[s]);
       for (int k = 0; k < kBlindKinds; ++k) {
         const CellClassCounts& c = r.blind_counts[k];
-        j << ", \"" << kBlindKeys[k]
-          << "_traversable\": " << jnum(c.fraction(s, {HybridLabel::kSafe, HybridLabel::kCaution}))
-          << ", \"" << kBlindKeys[k] << "_hazard\": " << jnum(c.fraction(s, {HybridLabel::kHazard}))
-          << ", \"" << kBlindKeys[k] << "_classified\": " << c.classified(s);
+        const std::string key = kBlindKeys[k];
+        j.kv(key + "_traversable", c.fraction(s, {HybridLabel::kSafe, HybridLabel::kCaution}));
+        j.kv(key + "_hazard", c.fraction(s, {HybridLabel::kHazard}));
+        j.kv(key + "_classified", c.classified(s));
       }
-      j << "}";
+      j.close('}');
     }
-    j << ", \"laser_ms_median\": " << jnum(statsOf(r.laser_ms).median)
-      << ", \"build_ms_median\": " << jnum(statsOf(r.build_ms).median) << "}";
+    j.kv("laser_ms_median", statsOf(r.laser_ms).median);
+    j.kv("build_ms_median", statsOf(r.build_ms).median).close('}');
   }
-  j << "\n  ],\n  \"landmark_filter\": [";
-  for (std::size_t k = 0; k < landmarks.size(); ++k) {
-    const LandmarkResult& r = landmarks[k];
-    j << (k ? "," : "") << "\n    {\"name\": \"" << r.name << "\", \"disparity\": \"" << r.disparity
-      << "\", \"has_depth\": " << (r.has_depth ? "true" : "false")
-      << ", \"ghost_px\": " << jnum(opt.ghost_px);
+  j.wrap(2).close(']');
+  j.wrap(2).key("landmark_filter").open('[');
+  for (const LandmarkResult& r : landmarks) {
+    j.wrap(4).open('{').kv("name", r.name).kv("disparity", r.disparity);
+    j.kv("has_depth", r.has_depth).kv("ghost_px", opt.ghost_px);
     for (int on = 0; on < 2; ++on) {
       const LandmarkRun& run = on ? r.on : r.off;
       const ssm::ErrorRates er = ssm::errorRates(run.map);
       const ssm::SafeClassScores sc = ssm::safeClassScores(run.map);
-      j << ", \"" << (on ? "on" : "off") << "\": {\"integrated\": " << run.integrated
-        << ", \"fp_rate\": " << jnum(er.fp) << ", \"fn_rate\": " << jnum(er.fn)
-        << ", \"precision\": " << jnum(sc.precision) << ", \"recall\": " << jnum(sc.recall)
-        << ", \"f1\": " << jnum(sc.f1) << ", \"points_reprojected\": " << run.points_reprojected
-        << ", \"points_to_grid\": " << run.points_to_grid
-        << ", \"ghost_fraction_to_grid\": " << jnum(ratio(run.ghosts_to_grid, run.checked_to_grid))
-        << ", \"ghosts_to_grid\": " << run.ghosts_to_grid
-        << ", \"landmark_ms_median\": " << jnum(statsOf(run.landmark_ms).median)
-        << ", \"landmark_ms_mean\": " << jnum(statsOf(run.landmark_ms).mean)
-        << ", \"landmark_ms_max\": " << jnum(statsOf(run.landmark_ms).max)
-        << ", \"landmark_cpu_ms_median\": " << jnum(statsOf(run.landmark_cpu_ms).median)
-        << ", \"landmark_cpu_ms_max\": " << jnum(statsOf(run.landmark_cpu_ms).max)
-        << ", \"frame_ms_median\": " << jnum(statsOf(run.frame_ms).median) << "}";
+      j.key(on ? "on" : "off").open('{').kv("integrated", run.integrated);
+      j.kv("fp_rate", er.fp).kv("fn_rate", er.fn);
+      j.kv("precision", sc.precision).kv("recall", sc.recall).kv("f1", sc.f1);
+      j.kv("points_reprojected", run.points_reprojected).kv("points_to_grid", run.points_to_grid);
+      j.kv("ghost_fraction_to_grid", ratio(run.ghosts_to_grid, run.checked_to_grid));
+      j.kv("ghosts_to_grid", run.ghosts_to_grid);
+      j.kv("landmark_ms_median", statsOf(run.landmark_ms).median);
+      j.kv("landmark_ms_mean", statsOf(run.landmark_ms).mean);
+      j.kv("landmark_ms_max", statsOf(run.landmark_ms).max);
+      j.kv("landmark_cpu_ms_median", statsOf(run.landmark_cpu_ms).median);
+      j.kv("landmark_cpu_ms_max", statsOf(run.landmark_cpu_ms).max);
+      j.kv("frame_ms_median", statsOf(run.frame_ms).median).close('}');
     }
-    j << "}";
+    j.close('}');
   }
-  j << "\n  ]\n}\n";
+  j.wrap(2).close(']').wrap(0).close('}');
   {
     std::ofstream out(opt.out + "/metrics.json");
-    out << j.str();
+    out << j.str() << "\n";
   }
 
   // ---- Markdown

@@ -45,6 +45,7 @@
 #include "stereo_safety_map/ros/param_yaml.h"
 #include "stereo_safety_map/tools/boards.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/json.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -576,111 +577,93 @@ std::string pct(double v) {
 std::string frames(int f) {
   return f < 0 ? "never" : std::to_string(f);
 }
-std::string jnum(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream os;
-  os << std::setprecision(6) << v;
-  return os.str();
+using stereo_safety_map::tools::Json;  // tools/json.h
+
+void jsonCounts(Json& j, const std::string& k, const ssm::ConfusionCounts& c) {
+  j.key(k).open('{').kv("tp", c.tp).kv("fp", c.fp).kv("fn", c.fn).kv("tn", c.tn);
+  j.kv("recall", recallOf(c)).kv("precision", precisionOf(c)).kv("fp_rate", fpRateOf(c));
+  j.close('}');
 }
-std::string jstr(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    o += c;
+
+void jsonCauses(Json& j, const std::string& k, const ssm::UnsafeCauseCounts& c) {
+  j.key(k).open('{');
+  for (int i = 1; i < ssm::kNumUnsafeCauses; ++i) {
+    j.key(ssm::toString(static_cast<ssm::UnsafeCause>(i))).open('{');
+    j.kv("occupied", c.occupied[i]).kv("free", c.free[i]);
+    j.kv("unclassified", c.unclassified[i]).close('}');
   }
-  return o + "\"";
+  j.close('}');
 }
 
-std::string jsonCounts(const ssm::ConfusionCounts& c) {
-  std::ostringstream os;
-  os << "{\"tp\": " << c.tp << ", \"fp\": " << c.fp << ", \"fn\": " << c.fn << ", \"tn\": " << c.tn
-     << ", \"recall\": " << jnum(recallOf(c)) << ", \"precision\": " << jnum(precisionOf(c))
-     << ", \"fp_rate\": " << jnum(fpRateOf(c)) << "}";
-  return os.str();
+void jsonEdges(Json& j, const std::string& k, const ssm::DropOffEdgeCounts& c) {
+  j.key(k).open('{').kv("marked", c.marked).kv("safe_unmarked", c.safe_unmarked);
+  j.kv("unsafe", c.unsafe).kv("unclassified", c.unclassified).close('}');
 }
 
-std::string jsonCauses(const ssm::UnsafeCauseCounts& c) {
-  std::ostringstream os;
-  os << "{";
-  for (int k = 1; k < ssm::kNumUnsafeCauses; ++k) {
-    os << (k > 1 ? ", " : "") << jstr(ssm::toString(static_cast<ssm::UnsafeCause>(k)))
-       << ": {\"occupied\": " << c.occupied[k] << ", \"free\": " << c.free[k]
-       << ", \"unclassified\": " << c.unclassified[k] << "}";
+void jsonLatency(Json& j, const std::string& k, const std::vector<Latency>& v) {
+  j.key(k).open('[');
+  for (const Latency& l : v) {
+    j.open('{').kv("board", l.board).kv("start_distance_m", l.start_distance);
+    j.kv("appear_frame", l.appear_frame).kv("frames_to_50", l.frames_to_50);
+    j.kv("frames_to_90", l.frames_to_90);
+    j.kv("final_coverage", l.coverage.empty() ? kNaN : l.coverage.back()).close('}');
   }
-  return os.str() + "}";
+  j.close(']');
 }
 
-std::string jsonEdges(const ssm::DropOffEdgeCounts& c) {
-  std::ostringstream os;
-  os << "{\"marked\": " << c.marked << ", \"safe_unmarked\": " << c.safe_unmarked
-     << ", \"unsafe\": " << c.unsafe << ", \"unclassified\": " << c.unclassified << "}";
-  return os.str();
+void jsonMapper(Json& j, const MapperResult& m) {
+  j.kv("maps", m.maps);
+  jsonCounts(j, "counts", m.counts);
+  jsonCauses(j, "causes", m.causes);
+  jsonEdges(j, "drop_off_edges", m.edges);
+  jsonLatency(j, "latency", m.latency);
 }
 
-std::string jsonLatency(const std::vector<Latency>& v) {
-  std::ostringstream os;
-  os << "[";
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const Latency& l = v[i];
-    os << (i ? ", " : "") << "{\"board\": " << jstr(l.board)
-       << ", \"start_distance_m\": " << jnum(l.start_distance)
-       << ", \"appear_frame\": " << l.appear_frame << ", \"frames_to_50\": " << l.frames_to_50
-       << ", \"frames_to_90\": " << l.frames_to_90
-       << ", \"final_coverage\": " << jnum(l.coverage.empty() ? kNaN : l.coverage.back()) << "}";
-  }
-  return os.str() + "]";
-}
-
+// Its layout: one line per top-level member, per dataset's part and per grid variant.
 std::string writeJson(const Options& opt, const Setup& s, const std::vector<DatasetResult>& all) {
-  std::ostringstream j;
-  j << "{\n  \"tool\": \"evaluate_occupancy_2d\",\n  \"command\": " << jstr(opt.command) << ",\n";
-  j << "  \"grid\": {\"resolution\": " << s.grid.resolution << ", \"k\": " << s.grid.k
-    << ", \"free_threshold\": " << s.grid.free_threshold
-    << ", \"occupied_threshold\": " << s.grid.occupied_threshold
-    << ", \"floor_clearance\": " << s.grid.floor_clearance
-    << ", \"robot_height\": " << s.grid.robot_height << "},\n";
-  j << "  \"radius_m\": " << jnum(s.radius) << ",\n  \"datasets\": [\n";
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    const DatasetResult& d = all[i];
-    j << "    {\"name\": " << jstr(d.name) << ", \"kind\": " << jstr(kindName(d.kind))
-      << ", \"pairs\": " << d.pairs << ", \"rejected\": " << d.rejected
-      << ", \"causes\": " << (d.causes_ok ? "true" : "false") << ", \"note\": " << jstr(d.note)
-      << ", \"gt_drop_off_edge_cells\": " << d.gt_edge_cells << ", \"gt_non_ground_cells\": {";
-    for (int k = 1; k < ssm::kNumUnsafeCauses; ++k) {
-      j << (k > 1 ? ", " : "") << jstr(ssm::toString(static_cast<ssm::UnsafeCause>(k))) << ": "
-        << d.gt_cause_cells[k];
-    }
-    j << "}"
-      << ",\n     \"grid\": [";
+  Json j;
+  j.open('{').wrap(2).kv("tool", "evaluate_occupancy_2d").wrap(2).kv("command", opt.command);
+  j.wrap(2).key("grid").open('{').kv("resolution", s.grid.resolution).kv("k", s.grid.k);
+  j.kv("free_threshold", s.grid.free_threshold);
+  j.kv("occupied_threshold", s.grid.occupied_threshold);
+  j.kv("floor_clearance", s.grid.floor_clearance);
+  j.kv("robot_height", s.grid.robot_height).close('}');
+  j.wrap(2).kv("radius_m", s.radius);
+  j.wrap(2).key("datasets").open('[');
+  for (const DatasetResult& d : all) {
+    j.wrap(4).open('{').kv("name", d.name).kv("kind", kindName(d.kind));
+    j.kv("pairs", d.pairs).kv("rejected", d.rejected).kv("causes", d.causes_ok);
+    j.kv("note", d.note).kv("gt_drop_off_edge_cells", d.gt_edge_cells);
+    j.key("gt_non_ground_cells").open('{');
+    for (int k = 1; k < ssm::kNumUnsafeCauses; ++k)
+      j.kv(ssm::toString(static_cast<ssm::UnsafeCause>(k)), d.gt_cause_cells[k]);
+    j.close('}');
+    j.wrap(5).key("grid").open('[');
     for (int v = 0; v < kNumVariants; ++v) {
-      const MapperResult& m = d.grid[v];
-      j << (v ? ",\n        " : "") << "{\"variant\": " << jstr(kVariants[v].name)
-        << ", \"spike_removal\": " << (kVariants[v].spikes ? "true" : "false")
-        << ", \"accuracy_preservation\": " << (kVariants[v].preservation ? "true" : "false")
-        << ", \"maps\": " << m.maps << ", \"counts\": " << jsonCounts(m.counts)
-        << ", \"causes\": " << jsonCauses(m.causes)
-        << ", \"drop_off_edges\": " << jsonEdges(m.edges)
-        << ", \"latency\": " << jsonLatency(m.latency) << "}";
+      if (v > 0) j.wrap(8);
+      j.open('{').kv("variant", kVariants[v].name).kv("spike_removal", kVariants[v].spikes);
+      j.kv("accuracy_preservation", kVariants[v].preservation);
+      jsonMapper(j, d.grid[v]);
+      j.close('}');
     }
-    j << "],\n     \"safety_map\": ";
+    j.close(']');
+    j.wrap(5).key("safety_map");
     if (d.safety_ran) {
-      j << "{\"maps\": " << d.safety.maps << ", \"counts\": " << jsonCounts(d.safety.counts)
-        << ", \"causes\": " << jsonCauses(d.safety.causes)
-        << ", \"drop_off_edges\": " << jsonEdges(d.safety.edges)
-        << ", \"latency\": " << jsonLatency(d.safety.latency) << "}";
+      j.open('{');
+      jsonMapper(j, d.safety);
+      j.close('}');
     } else {
-      j << "null";
+      j.null();
     }
-    j << ",\n     \"timings_ms\": {\"disparity_mean\": " << jnum(mean(d.disparity_ms))
-      << ", \"grid_update_mean\": " << jnum(mean(d.grid_ms))
-      << ", \"grid_update_p90\": " << jnum(percentile(d.grid_ms, 0.9))
-      << ", \"safety_map_mean\": " << jnum(mean(d.safety_ms)) << "}}"
-      << (i + 1 < all.size() ? "," : "") << "\n";
+    j.wrap(5).key("timings_ms").open('{').kv("disparity_mean", mean(d.disparity_ms));
+    j.kv("grid_update_mean", mean(d.grid_ms));
+    j.kv("grid_update_p90", percentile(d.grid_ms, 0.9));
+    j.kv("safety_map_mean", mean(d.safety_ms)).close('}').close('}');
   }
-  j << "  ]\n}\n";
+  j.wrap(2).close(']').wrap(0).close('}');
   std::ofstream f(opt.out + "/metrics.json");
   if (!f) return "cannot write " + opt.out + "/metrics.json";
-  f << j.str();
+  f << j.str() << "\n";
   return "";
 }
 
