@@ -32,6 +32,7 @@
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/args.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
 #include "stereo_safety_map/tools/json.h"
 
@@ -113,48 +114,22 @@ void usage() {
 }
 
 bool parseArgs(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto next = [&](const char* name) -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "error: %s needs a value\n", name);
-        return nullptr;
-      }
-      return argv[++i];
-    };
-    const char* v = nullptr;
-    if (a == "--bag") {
-      if (!(v = next("--bag"))) return false;
-      o->bags.push_back(v);
-    } else if (a == "--overhang-bag") {
-      if (!(v = next("--overhang-bag"))) return false;
-      o->overhang_bags.push_back(v);
-    } else if (a == "--noisy-bag") {
-      if (!(v = next("--noisy-bag"))) return false;
-      o->noisy_bags.push_back(v);
-    } else if (a == "--out") {
-      if (!(v = next("--out"))) return false;
-      o->out = v;
-    } else if (a == "--params") {
-      if (!(v = next("--params"))) return false;
-      o->params.push_back(v);
-    } else if (a == "--set") {
-      if (!(v = next("--set"))) return false;
-      o->sets.push_back(v);
-    } else if (a == "--every") {
-      if (!(v = next("--every"))) return false;
-      o->every = std::max(1, std::atoi(v));
-    } else if (a == "--max-frames") {
-      if (!(v = next("--max-frames"))) return false;
-      o->max_frames = std::atol(v);
-    } else if (a == "--ghost-px") {
-      if (!(v = next("--ghost-px"))) return false;
-      o->ghost_px = std::atof(v);
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
+    if (a.value("--bag", &o->bags) || a.value("--overhang-bag", &o->overhang_bags) ||
+        a.value("--noisy-bag", &o->noisy_bags) || a.value("--out", &o->out) ||
+        a.value("--params", &o->params) || a.value("--set", &o->sets) ||
+        a.value("--max-frames", &o->max_frames) || a.flag("--quiet", &o->quiet))
+      continue;
+    if (a.value("--every", &o->every)) {
+      o->every = std::max(1, o->every);
+    } else if (a.value("--ghost-px", &o->ghost_px)) {
       if (!(o->ghost_px > 0.0)) return false;
-    } else if (a == "--quiet") {
-      o->quiet = true;
+    } else if (a.missingValue()) {
+      std::fprintf(stderr, "error: %s needs a value\n", a.arg().c_str());
+      return false;
     } else {
-      std::fprintf(stderr, "error: unknown argument %s\n", a.c_str());
+      std::fprintf(stderr, "error: unknown argument %s\n", a.arg().c_str());
       return false;
     }
   }
@@ -750,23 +725,12 @@ void jsonCounts(Json& j, const std::string& k, const ConfusionCounts& c) {
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parseArgs(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parseArgs(argc, argv, &opt)) return ssm::tools::usageError(usage);
   ros::Time::init();
-  std::string command = "evaluate_hybrid";
-  for (int i = 1; i < argc; ++i)
-    command += std::string(" ") + argv[i];
+  const std::string command = ssm::tools::commandLine("evaluate_hybrid", argc, argv);
 
   ssm::StereoFrameProcessorConfig config;
-  {
-    const std::string e = ssm::loadCoreParams(opt.params, opt.sets, &config);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 2;
-    }
-  }
+  if (ssm::tools::printError(ssm::loadCoreParams(opt.params, opt.sets, &config))) return 2;
   if (!ssm::makeDirs(opt.out)) {
     std::fprintf(stderr, "error: cannot create %s\n", opt.out.c_str());
     return 1;
@@ -778,11 +742,7 @@ int main(int argc, char** argv) {
     for (const std::string& b : pass == 0 ? opt.bags : opt.overhang_bags) {
       if (!opt.quiet) std::fprintf(stderr, "fusion: %s\n", b.c_str());
       FusionResult r;
-      const std::string e = runFusion(b, config, opt, pass == 1, &r);
-      if (!e.empty()) {
-        std::fprintf(stderr, "error: %s\n", e.c_str());
-        return 1;
-      }
+      if (ssm::tools::printError(runFusion(b, config, opt, pass == 1, &r))) return 1;
       fusion.push_back(r);
     }
   }
@@ -799,11 +759,7 @@ int main(int argc, char** argv) {
       if (!opt.quiet) std::fprintf(stderr, "landmark filter: %s\n", b.c_str());
       LandmarkResult r;
       r.disparity = pass == 0 ? "post-filters as configured" : "matcher only";
-      const std::string e = runLandmarks(b, pass == 0 ? config : raw, opt, &r);
-      if (!e.empty()) {
-        std::fprintf(stderr, "error: %s\n", e.c_str());
-        return 1;
-      }
+      if (ssm::tools::printError(runLandmarks(b, pass == 0 ? config : raw, opt, &r))) return 1;
       landmarks.push_back(r);
     }
   }

@@ -43,6 +43,7 @@
 #include "stereo_safety_map/dataset/scene_loader.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/args.h"
 #include "stereo_safety_map/tools/boards.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
 #include "stereo_safety_map/tools/json.h"
@@ -118,46 +119,23 @@ void usage() {
 }
 
 bool parse(int argc, char** argv, Options* o) {
-  std::ostringstream cmd;
-  for (int i = 0; i < argc; ++i)
-    cmd << (i ? " " : "") << argv[i];
-  o->command = cmd.str();
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = nullptr;
-    if (a == "--bag" && (v = next())) {
-      o->bags.push_back(v);
-    } else if (a == "--compare-bag" && (v = next())) {
-      o->compare_bags.push_back(v);
-    } else if (a == "--latency-bag" && (v = next())) {
-      o->latency_bags.push_back(v);
-    } else if (a == "--out" && (v = next())) {
-      o->out = v;
-    } else if (a == "--params" && (v = next())) {
-      o->params = v;
-    } else if (a == "--core-params" && (v = next())) {
-      o->core_params = v;
-    } else if (a == "--scenes" && (v = next())) {
-      o->scenes = v;
-    } else if (a == "--set" && (v = next())) {
-      o->sets.push_back(v);
-    } else if (a == "--radius" && (v = next())) {
-      o->radius = std::atof(v);
-    } else if (a == "--every" && (v = next())) {
-      o->every = std::max(1, std::atoi(v));
-    } else if (a == "--max-frames" && (v = next())) {
-      o->max_frames = std::atol(v);
-    } else if (a == "--images" && (v = next())) {
-      o->images = std::max(0, std::atoi(v));
-    } else if (a == "--safety-metrics" && (v = next())) {
-      o->safety_metrics = v;
-    } else if (a == "--no-safety-map") {
-      o->safety_map = false;
-    } else if (a == "--quiet") {
-      o->quiet = true;
+  o->command = ssm::tools::commandLine(argv[0], argc, argv);
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
+    if (a.value("--bag", &o->bags) || a.value("--compare-bag", &o->compare_bags) ||
+        a.value("--latency-bag", &o->latency_bags) || a.value("--out", &o->out) ||
+        a.value("--params", &o->params) || a.value("--core-params", &o->core_params) ||
+        a.value("--scenes", &o->scenes) || a.value("--set", &o->sets) ||
+        a.value("--radius", &o->radius) || a.value("--max-frames", &o->max_frames) ||
+        a.value("--safety-metrics", &o->safety_metrics) ||
+        a.flag("--no-safety-map", &o->safety_map, false) || a.flag("--quiet", &o->quiet))
+      continue;
+    if (a.value("--every", &o->every)) {
+      o->every = std::max(1, o->every);
+    } else if (a.value("--images", &o->images)) {
+      o->images = std::max(0, o->images);
     } else {
-      std::fprintf(stderr, "unknown or incomplete argument: %s\n", a.c_str());
+      std::fprintf(stderr, "unknown or incomplete argument: %s\n", a.arg().c_str());
       return false;
     }
   }
@@ -946,10 +924,7 @@ std::string writeReport(const Options& opt, const Setup& s, const std::vector<Da
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parse(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parse(argc, argv, &opt)) return ssm::tools::usageError(usage);
   Setup setup;
   std::string e = ssm::loadOccupancy2DParamsFile(opt.params, &setup.grid);
   for (const std::string& a : opt.sets)

@@ -29,6 +29,7 @@
 #include "evaluate_safety_map.h"
 
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/args.h"
 
 #include <ros/time.h>
 
@@ -80,51 +81,28 @@ bool parseIntList(const std::string& s, std::vector<int>* out) {
 }
 
 bool parseArgs(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = nullptr;
-    if (a == "--bag" && (v = next())) {
-      o->bags.push_back(v);
-    } else if (a == "--latency-bag" && (v = next())) {
-      o->latency_bags.push_back(v);
-    } else if (a == "--out" && (v = next())) {
-      o->out = v;
-    } else if (a == "--decr" && (v = next())) {
-      if (!parseIntList(v, &o->decr)) return false;
-    } else if (a == "--every" && (v = next())) {
-      o->every = std::atoi(v);
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
+    if (a.value("--bag", &o->bags) || a.value("--latency-bag", &o->latency_bags) ||
+        a.value("--out", &o->out) || a.value("--max-frames", &o->max_frames) ||
+        a.value("--seed", &o->seed) || a.value("--params", &o->params) ||
+        a.value("--set", &o->sets) || a.value("--recorded", &o->recorded) ||
+        a.value("--fixed-frame", &o->fixed_frame) || a.value("--base-frame", &o->base_frame) ||
+        a.value("--camera", &o->camera) || a.flag("--no-model", &o->model, false) ||
+        a.flag("--quiet", &o->quiet) || a.value("--scenes", &o->scenes) ||
+        a.value("--dump-frame", &o->dump_frame))
+      continue;
+    std::string decr;
+    if (a.value("--decr", &decr)) {
+      if (!parseIntList(decr, &o->decr)) return false;
+    } else if (a.value("--every", &o->every)) {
       if (o->every < 1) return false;
-    } else if (a == "--max-frames" && (v = next())) {
-      o->max_frames = std::atol(v);
-    } else if (a == "--images" && (v = next())) {
-      o->images = std::max(0, std::atoi(v));
-    } else if (a == "--plane-frames" && (v = next())) {
-      o->plane_frames = std::max(0, std::atoi(v));
-    } else if (a == "--seed" && (v = next())) {
-      o->seed = static_cast<unsigned>(std::strtoul(v, nullptr, 10));
-    } else if (a == "--params" && (v = next())) {
-      o->params.push_back(v);
-    } else if (a == "--set" && (v = next())) {
-      o->sets.push_back(v);
-    } else if (a == "--recorded" && (v = next())) {
-      o->recorded = v;
-    } else if (a == "--fixed-frame" && (v = next())) {
-      o->fixed_frame = v;
-    } else if (a == "--base-frame" && (v = next())) {
-      o->base_frame = v;
-    } else if (a == "--camera" && (v = next())) {
-      o->camera = v;
-    } else if (a == "--no-model") {
-      o->model = false;
-    } else if (a == "--quiet") {
-      o->quiet = true;
-    } else if (a == "--scenes" && (v = next())) {
-      o->scenes = v;
-    } else if (a == "--dump-frame" && (v = next())) {
-      o->dump_frame = std::atoi(v);
+    } else if (a.value("--images", &o->images)) {
+      o->images = std::max(0, o->images);
+    } else if (a.value("--plane-frames", &o->plane_frames)) {
+      o->plane_frames = std::max(0, o->plane_frames);
     } else {
-      std::fprintf(stderr, "bad or incomplete argument: %s\n", a.c_str());
+      std::fprintf(stderr, "bad or incomplete argument: %s\n", a.arg().c_str());
       return false;
     }
   }
@@ -142,23 +120,12 @@ using namespace evaluate_safety_map;  // NOLINT(build/namespaces)
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parseArgs(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parseArgs(argc, argv, &opt)) return ssm::tools::usageError(usage);
   ros::Time::init();
-  std::string command = "evaluate_safety_map";
-  for (int i = 1; i < argc; ++i)
-    command += std::string(" ") + argv[i];
+  const std::string command = ssm::tools::commandLine("evaluate_safety_map", argc, argv);
 
   ssm::StereoFrameProcessorConfig config;
-  {
-    const std::string e = ssm::loadCoreParams(opt.params, opt.sets, &config);
-    if (!e.empty()) {
-      std::fprintf(stderr, "error: %s\n", e.c_str());
-      return 2;
-    }
-  }
+  if (ssm::tools::printError(ssm::loadCoreParams(opt.params, opt.sets, &config))) return 2;
   for (int d : opt.decr) {
     ssm::StereoFrameProcessorConfig c = config;
     c.mapper.grid.decr = d;
@@ -177,28 +144,18 @@ int main(int argc, char** argv) {
   for (int pass = 0; pass < 2; ++pass) {
     for (const std::string& b : pass == 0 ? opt.bags : opt.latency_bags) {
       ssm::Dataset d;
-      const std::string e = ssm::loadDataset(b, pass == 1, &d);
-      if (!e.empty()) {
-        std::fprintf(stderr, "error: %s\n", e.c_str());
-        return 1;
-      }
+      if (ssm::tools::printError(ssm::loadDataset(b, pass == 1, &d))) return 1;
       datasets.push_back(d);
     }
   }
 
   std::vector<Run> runs;
   const Clock::time_point t0 = Clock::now();
-  const std::string e = opt.recorded.empty() ? evaluateOffline(opt, config, datasets, &runs)
-                                             : evaluateRecorded(opt, datasets.front(), &runs);
-  if (!e.empty()) {
-    std::fprintf(stderr, "error: %s\n", e.c_str());
+  if (ssm::tools::printError(opt.recorded.empty()
+                                 ? evaluateOffline(opt, config, datasets, &runs)
+                                 : evaluateRecorded(opt, datasets.front(), &runs)) ||
+      ssm::tools::printError(writeOutputs(opt, config, runs, command)))
     return 1;
-  }
-  const std::string w = writeOutputs(opt, config, runs, command);
-  if (!w.empty()) {
-    std::fprintf(stderr, "error: %s\n", w.c_str());
-    return 1;
-  }
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   for (const Run& r : runs) {
     const RunSummary s = summarize(r);
