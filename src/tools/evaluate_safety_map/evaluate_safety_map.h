@@ -23,10 +23,10 @@
 #include <vector>
 
 namespace ssm = stereo_safety_map;
-using ssm::SafetyLabel;
 
 namespace evaluate_safety_map {
 
+using ssm::SafetyLabel;
 using Clock = std::chrono::steady_clock;
 using ssm::fileExists;
 using ssm::labelColour;
