@@ -44,6 +44,7 @@
 #include "stereo_safety_map/tools/boards.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
 #include "stereo_safety_map/tools/json.h"
+#include "stereo_safety_map/tools/series.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -131,23 +132,7 @@ bool parseArgs(int argc, char** argv, Options* o) {
   return !o->bags.empty() || !o->latency_bags.empty();
 }
 
-struct Series {
-  std::vector<double> v;
-  void add(double x) { v.push_back(x); }
-  double mean() const {
-    if (v.empty()) return kNaN;
-    double s = 0.0;
-    for (double x : v)
-      s += x;
-    return s / v.size();
-  }
-  double quantile(double q) const {
-    if (v.empty()) return kNaN;
-    std::vector<double> s = v;
-    std::sort(s.begin(), s.end());
-    return s[std::min(s.size() - 1, static_cast<std::size_t>(q * (s.size() - 1) + 0.5))];
-  }
-};
+using ssm::tools::Series;  // tools/series.h
 
 // CPU time of this thread [ms]: the cost of a detection on one core, whatever else the machine
 // runs (wall time on a shared machine measures the neighbours too).

@@ -9,6 +9,7 @@
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
+#include "stereo_safety_map/tools/series.h"
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -59,23 +60,11 @@ struct Options {
   std::string scenes = "scenes";  // where to look for scene files (local-horizon GT)  // print the
                                   // segments of this stereo pair's map (first dataset, first decr)
 };
+
 // ---------------------------------------------------------------------------------------------
 // Statistics
 
-struct Series {
-  std::vector<double> v;
-  void add(double x) { v.push_back(x); }
-  double mean() const {
-    return v.empty() ? kNaN : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
-  }
-  double quantile(double q) const {
-    if (v.empty()) return kNaN;
-    std::vector<double> s = v;
-    std::sort(s.begin(), s.end());
-    return s[std::min(s.size() - 1, static_cast<std::size_t>(q * (s.size() - 1) + 0.5))];
-  }
-  double max() const { return v.empty() ? kNaN : *std::max_element(v.begin(), v.end()); }
-};
+using ssm::tools::Series;  // tools/series.h
 
 inline constexpr const char* kStageNames[] = {"disparity",  "reproject",    "update",
                                               "height_map", "segmentation", "plane_fit",
