@@ -40,9 +40,11 @@
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/args.h"
 #include "stereo_safety_map/tools/boards.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
 #include "stereo_safety_map/tools/json.h"
+#include "stereo_safety_map/tools/series.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -103,65 +105,34 @@ void usage() {
 }
 
 bool parseArgs(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    const char* v = nullptr;
-    if (a == "--bag" && (v = next())) {
-      o->bags.push_back(v);
-    } else if (a == "--latency-bag" && (v = next())) {
-      o->latency_bags.push_back(v);
-    } else if (a == "--out" && (v = next())) {
-      o->out = v;
-    } else if (a == "--params" && (v = next())) {
-      o->params = v;
-    } else if (a == "--obstacle-params" && (v = next())) {
-      o->obstacle_params = v;
-    } else if (a == "--every" && (v = next())) {
-      o->every = std::atoi(v);
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
+    if (a.value("--bag", &o->bags) || a.value("--latency-bag", &o->latency_bags) ||
+        a.value("--out", &o->out) || a.value("--params", &o->params) ||
+        a.value("--obstacle-params", &o->obstacle_params) ||
+        a.value("--max-frames", &o->max_frames) || a.flag("--quiet", &o->quiet))
+      continue;
+    if (a.value("--every", &o->every)) {
       if (o->every < 1) return false;
-    } else if (a == "--max-frames" && (v = next())) {
-      o->max_frames = std::atol(v);
-    } else if (a == "--max-range" && (v = next())) {
-      o->max_range = std::atof(v);
+    } else if (a.value("--max-range", &o->max_range)) {
       if (!(o->max_range > 0.0)) return false;
-    } else if (a == "--min-visible" && (v = next())) {
-      o->min_visible = std::max(1, std::atoi(v));
-    } else if (a == "--min-fraction" && (v = next())) {
-      o->min_fraction = std::atof(v);
+    } else if (a.value("--min-visible", &o->min_visible)) {
+      o->min_visible = std::max(1, o->min_visible);
+    } else if (a.value("--min-fraction", &o->min_fraction)) {
       if (!(o->min_fraction > 0.0 && o->min_fraction <= 1.0)) return false;
-    } else if (a == "--margin" && (v = next())) {
-      o->margin = std::atof(v);
+    } else if (a.value("--margin", &o->margin)) {
       if (!(o->margin >= 0.0)) return false;
-    } else if (a == "--images" && (v = next())) {
-      o->images = std::max(0, std::atoi(v));
-    } else if (a == "--quiet") {
-      o->quiet = true;
+    } else if (a.value("--images", &o->images)) {
+      o->images = std::max(0, o->images);
     } else {
-      std::fprintf(stderr, "bad or incomplete argument: %s\n", a.c_str());
+      std::fprintf(stderr, "bad or incomplete argument: %s\n", a.arg().c_str());
       return false;
     }
   }
   return !o->bags.empty() || !o->latency_bags.empty();
 }
 
-struct Series {
-  std::vector<double> v;
-  void add(double x) { v.push_back(x); }
-  double mean() const {
-    if (v.empty()) return kNaN;
-    double s = 0.0;
-    for (double x : v)
-      s += x;
-    return s / v.size();
-  }
-  double quantile(double q) const {
-    if (v.empty()) return kNaN;
-    std::vector<double> s = v;
-    std::sort(s.begin(), s.end());
-    return s[std::min(s.size() - 1, static_cast<std::size_t>(q * (s.size() - 1) + 0.5))];
-  }
-};
+using ssm::tools::Series;  // tools/series.h
 
 // CPU time of this thread [ms]: the cost of a detection on one core, whatever else the machine
 // runs (wall time on a shared machine measures the neighbours too).
@@ -574,10 +545,7 @@ void methodJson(Json& j, const std::string& name, const MethodScore& m) {
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parseArgs(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parseArgs(argc, argv, &opt)) return ssm::tools::usageError(usage);
   ssm::StereoFrameProcessorConfig pcfg;
   ssm::ObstacleDetectionConfig ocfg;
   ssm::ObstacleDetectionRosConfig orcfg;

@@ -28,6 +28,7 @@
 #include "stereo_safety_map/dataset/open_world.h"
 #include "stereo_safety_map/dataset/procedural_scene.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/tools/args.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
 #include "stereo_safety_map/tools/json.h"
 
@@ -86,39 +87,23 @@ void usage() {
 }
 
 bool parse(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&](std::string* v) {
-      if (i + 1 >= argc) return false;
-      *v = argv[++i];
-      return true;
-    };
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
     std::string v;
-    if (a == "--split" && next(&v)) {
-      o->split = v;
-    } else if (a == "--scenes" && next(&v)) {
-      o->scenes = std::atoi(v.c_str());
-    } else if (a == "--first" && next(&v)) {
-      o->first = std::atoi(v.c_str());
-    } else if (a == "--conditions" && next(&v)) {
+    if (a.value("--split", &o->split) || a.value("--scenes", &o->scenes) ||
+        a.value("--first", &o->first) || a.value("--max-frames", &o->max_frames) ||
+        a.value("--out", &o->out) || a.value("--params", &o->params) ||
+        a.value("--set", &o->sets) || a.flag("--quiet", &o->quiet))
+      continue;
+    if (a.value("--conditions", &v)) {
       o->conditions = splitList(v);
-    } else if (a == "--variants" && next(&v)) {
+    } else if (a.value("--variants", &v)) {
       o->variants = splitList(v);
-    } else if (a == "--jobs" && next(&v)) {
-      o->jobs = std::max(1, std::atoi(v.c_str()));
-    } else if (a == "--max-frames" && next(&v)) {
-      o->max_frames = std::atoi(v.c_str());
-    } else if (a == "--out" && next(&v)) {
-      o->out = v;
-    } else if (a == "--params" && next(&v)) {
-      o->params.push_back(v);
-    } else if (a == "--set" && next(&v)) {
-      o->sets.push_back(v);
-    } else if (a == "--images" && next(&v)) {
+    } else if (a.value("--jobs", &o->jobs)) {
+      o->jobs = std::max(1, o->jobs);
+    } else if (a.value("--images", &v)) {
       for (const std::string& f : splitList(v))
         o->image_frames.push_back(std::atoi(f.c_str()));
-    } else if (a == "--quiet") {
-      o->quiet = true;
     } else {
       return false;
     }
@@ -235,10 +220,7 @@ void jsonStat(ssm::tools::Json& j, const std::string& k, const Stat& s) {
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parse(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parse(argc, argv, &opt)) return ssm::tools::usageError(usage);
   ssm::StereoFrameProcessorConfig base;
   for (const std::string& p : opt.params) {
     const std::string e = ssm::loadCoreParams(p, &base);

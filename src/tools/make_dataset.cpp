@@ -27,6 +27,7 @@
 #include "stereo_safety_map/dataset/scene_loader.h"
 #include "stereo_safety_map/dataset/trajectory.h"
 #include "stereo_safety_map/ros/conversions.h"
+#include "stereo_safety_map/tools/args.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -99,55 +100,27 @@ void usage() {
 }
 
 bool parseArgs(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&](const char* what) -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "missing value for %s\n", what);
-        return nullptr;
-      }
-      return argv[++i];
-    };
-    const char* v = nullptr;
-    if (a == "--scene") {
-      if (!(v = next("--scene"))) return false;
-      o->scenes.push_back(v);
-    } else if (a == "--out") {
-      if (!(v = next("--out"))) return false;
-      o->out = v;
-    } else if (a == "--small") {
-      o->small = true;
-    } else if (a == "--frames") {
-      if (!(v = next("--frames"))) return false;
-      o->frames = std::atol(v);
+  ssm::tools::Args a(argc, argv);
+  while (a.next()) {
+    if (a.value("--scene", &o->scenes) || a.value("--out", &o->out) ||
+        a.flag("--small", &o->small) || a.value("--variant", &o->variant) ||
+        a.flag("--colour", &o->colour) || a.flag("--color", &o->colour) ||
+        a.flag("--depth", &o->depth) || a.flag("--no-bag", &o->bag, false) ||
+        a.flag("--preview", &o->preview) || a.flag("--info", &o->info))
+      continue;
+    if (a.value("--frames", &o->frames)) {
       if (o->frames < 1) return false;
-    } else if (a == "--seed") {
-      if (!(v = next("--seed"))) return false;
-      o->seed = std::atoll(v);
+    } else if (a.value("--seed", &o->seed)) {
       if (o->seed < 0) return false;
-    } else if (a == "--variant") {
-      if (!(v = next("--variant"))) return false;
-      o->variant = v;
-    } else if (a == "--threads") {
-      if (!(v = next("--threads"))) return false;
-      o->threads = std::atoi(v);
+    } else if (a.value("--threads", &o->threads)) {
       if (o->threads < 1 || o->threads > 64) return false;
-    } else if (a == "--colour" || a == "--color") {
-      o->colour = true;
-    } else if (a == "--depth") {
-      o->depth = true;
-    } else if (a == "--no-bag") {
-      o->bag = false;
-    } else if (a == "--preview") {
-      o->preview = true;
-    } else if (a == "--info") {
-      o->info = true;
-    } else if (a == "--compress") {
-      if (!(v = next("--compress"))) return false;
-      o->compress = v;
+    } else if (a.value("--compress", &o->compress)) {
       if (o->compress != "none" && o->compress != "lz4" && o->compress != "bz2") return false;
+    } else if (a.missingValue()) {
+      std::fprintf(stderr, "missing value for %s\n", a.arg().c_str());
+      return false;
     } else {
-      std::fprintf(stderr, "unknown argument %s\n", a.c_str());
+      std::fprintf(stderr, "unknown argument %s\n", a.arg().c_str());
       return false;
     }
   }
@@ -583,10 +556,7 @@ int runOne(const std::string& path, const std::string& variant, const Options& o
 
 int main(int argc, char** argv) {
   Options opt;
-  if (!parseArgs(argc, argv, &opt)) {
-    usage();
-    return 2;
-  }
+  if (!parseArgs(argc, argv, &opt)) return ssm::tools::usageError(usage);
   if (!opt.info && !makeDir(opt.out)) {
     std::fprintf(stderr, "error: cannot create output directory %s\n", opt.out.c_str());
     return 1;

@@ -1,7 +1,9 @@
 // The command-line tools' one JSON writer (metrics.json of the evaluators, bench_pipeline's
 // --json): objects, arrays, numbers (%.6g; NaN / inf as null), integers, booleans, strings, null.
 // Compact (one line) by default; `Json(true)` puts every member on its own line, indented by two
-// spaces a level (bench.json). Header-only.
+// spaces a level (bench.json); `wrap(n)` starts the next member, element or closing bracket on a
+// new line indented by n spaces (the hand-made layouts of evaluate_hybrid's and
+// evaluate_occupancy_2d's metrics.json). Header-only.
 #pragma once
 
 #include <cmath>
@@ -26,7 +28,11 @@ class Json {
   }
   Json& close(char c) {
     --depth_;
-    if (pretty_) newline();
+    if (wrap_ >= 0) {
+      wrapLine();
+    } else if (pretty_) {
+      newline();
+    }
     os_ << c;
     first_ = false;
     return *this;
@@ -69,6 +75,12 @@ class Json {
     return *this;
   }
   Json& val(const char* s) { return val(std::string(s)); }
+  /// A value written as it is: a number as a paper prints it ("0.90"), already formatted.
+  Json& raw(const std::string& text) {
+    sep();
+    os_ << text;
+    return *this;
+  }
   Json& null() {
     sep();
     os_ << "null";
@@ -78,6 +90,12 @@ class Json {
   Json& kv(const std::string& k, const T& v) {
     key(k);
     return val(v);
+  }
+  /// The next member, element or closing bracket on a new line, indented by `spaces` (the comma
+  /// before it stays at the end of the line).
+  Json& wrap(int spaces) {
+    wrap_ = spaces;
+    return *this;
   }
   /// `k`: v written as a number (%.6g) whatever its type, counts included (evaluate_obstacles'
   /// metrics.json has always written its counts so).
@@ -93,9 +111,17 @@ class Json {
       first_ = false;
       return;
     }
-    if (!first_) os_ << (pretty_ ? "," : ", ");
-    if (pretty_ && depth_ > 0) newline();
+    if (!first_) os_ << (pretty_ || wrap_ >= 0 ? "," : ", ");
+    if (wrap_ >= 0) {
+      wrapLine();
+    } else if (pretty_ && depth_ > 0) {
+      newline();
+    }
     first_ = false;
+  }
+  void wrapLine() {
+    os_ << '\n' << std::string(static_cast<std::size_t>(wrap_), ' ');
+    wrap_ = -1;
   }
   void newline() { os_ << '\n' << std::string(2 * static_cast<std::size_t>(depth_), ' '); }
   void quote(const std::string& s) {
@@ -118,6 +144,7 @@ class Json {
   int depth_ = 0;
   bool first_ = true;
   bool after_key_ = false;
+  int wrap_ = -1;
 };
 
 }  // namespace tools
