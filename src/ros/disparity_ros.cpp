@@ -1,7 +1,7 @@
 #include "stereo_safety_map/ros/disparity_ros.h"
 
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/reconfigure_fields.h"
 
 #include <cv_bridge/cv_bridge.h>

@@ -1,7 +1,7 @@
 #include "stereo_safety_map/ros/hybrid_safety_map_ros.h"
 
 #include "stereo_safety_map/ros/hybrid_conversions.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 
 #include <nav_msgs/OccupancyGrid.h>
 #include <tf2_eigen/tf2_eigen.h>

@@ -2,10 +2,10 @@
 
 #include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/ros/disparity_params.h"
-#include "stereo_safety_map/ros/fusion_params.h"
+#include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/safety_map_params.h"
 
 #include <stdexcept>
 

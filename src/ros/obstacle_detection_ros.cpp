@@ -1,7 +1,7 @@
 #include "stereo_safety_map/ros/obstacle_detection_ros.h"
 
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>

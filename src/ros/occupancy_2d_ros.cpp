@@ -2,7 +2,7 @@
 
 #include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/occupancy_2d_conversions.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 
 #include <tf2_eigen/tf2_eigen.h>
 

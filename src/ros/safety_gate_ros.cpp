@@ -1,6 +1,6 @@
 #include "stereo_safety_map/ros/safety_gate_ros.h"
 
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/safety_map_msg_conversions.h"
 
 #include <tf2/LinearMath/Matrix3x3.h>

@@ -2,8 +2,8 @@
 
 #include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/hybrid_conversions.h"
+#include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/reconfigure_fields.h"
 #include "stereo_safety_map/ros/safety_map_export.h"
 
@@ -543,7 +543,7 @@ bool SafetyMapRos::saveSrv(SaveMap::Request& req, SaveMap::Response& res) {
 
 void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
   if (!processor_) return;
-  // The live fields of the two lists (core/config_fields.h, ros/params.h), by name.
+  // The live fields of the two lists (core/config_fields.h, ros/safety_map_params.h), by name.
   SafetyMapperConfig c = mapper_config_;
   SafetyMapRosConfig r = ros_config_;
   std::string err = fromReconfigure(config, safetyMapperFields(), &c);

@@ -7,7 +7,7 @@
 #include "../core/param_field_checks.h"
 
 #include "stereo_safety_map/ros/disparity_params.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
 #include <gtest/gtest.h>

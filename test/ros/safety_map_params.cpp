@@ -5,9 +5,9 @@
 
 #include "../core/param_field_checks.h"
 
-#include "stereo_safety_map/ros/fusion_params.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/safety_map_params.h"
 
 #include <gtest/gtest.h>
 #include <xmlrpcpp/XmlRpcValue.h>

@@ -52,7 +52,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* co
 std::string fromRosParam(const ros::NodeHandle& pnh, DisparityRosConfig* config);
 
 /// Every parameter name the disparity nodelet reads from its private namespace (for the
-/// unknown-parameter warning, params.h's unknownParameters()).
+/// unknown-parameter warning, param_reader.h's unknownParameters()).
 std::vector<std::string> disparityParameterNames();
 
 }  // namespace stereo_safety_map

@@ -19,7 +19,7 @@
 #include "stereo_safety_map/core/hybrid_safety_map.h"
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/safety_map.h"
-#include "stereo_safety_map/ros/fusion_params.h"
+#include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 #include "stereo_safety_map/ros/msgs.h"
 #include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/problem_log.h"

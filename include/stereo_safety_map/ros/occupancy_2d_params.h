@@ -43,7 +43,7 @@ std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DConfig* conf
 std::string fromRosParam(const ros::NodeHandle& pnh, Occupancy2DRosConfig* config);
 
 /// Every parameter name the nodelet reads from its private namespace (for the unknown-parameter
-/// warning, params.h's unknownParameters()).
+/// warning, param_reader.h's unknownParameters()).
 std::vector<std::string> occupancy2DParameterNames();
 
 /// The core keys of a YAML file such as config/occupancy_2d.yaml applied to `config` and

@@ -14,9 +14,11 @@
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include <algorithm>
 #include <limits>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace stereo_safety_map {
 
@@ -135,6 +137,26 @@ std::string readParams(const ros::NodeHandle& pnh, const ParamFieldList<Config>&
   r.readFields(list, config);
   if (!r.error().empty()) return r.error();
   return r.result(list.validate(*config));
+}
+
+/// Parameters set in pnh's namespace (first level) that are not in `known`: likely typos (every
+/// nodelet warns about them once at start).
+inline std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,
+                                                  const std::vector<std::string>& known) {
+  std::vector<std::string> all;
+  std::vector<std::string> unknown;
+  if (!pnh.getParamNames(all)) return unknown;
+  const std::string prefix = pnh.getNamespace() + "/";
+  for (const std::string& name : all) {
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    std::string rest = name.substr(prefix.size());
+    rest = rest.substr(0, rest.find('/'));  // first level only
+    if (std::find(known.begin(), known.end(), rest) == known.end() &&
+        std::find(unknown.begin(), unknown.end(), rest) == unknown.end()) {
+      unknown.push_back(rest);
+    }
+  }
+  return unknown;
 }
 
 }  // namespace stereo_safety_map

@@ -1,4 +1,5 @@
-// Validated loading of the core configs and of the nodelet's own settings from the parameter
+// The safety-map nodelet's parameters: validated loading of the core configs (the mapper, paper
+// 001's landmark filter in front of it) and of the nodelet's own settings from the parameter
 // server (after voxblox's ros_params.h: validate as you read).
 //
 // Parameter names are the names of the field lists (core/config_fields.h, safetyMapRosFields()
@@ -10,6 +11,7 @@
 #pragma once
 
 #include "stereo_safety_map/core/config_fields.h"
+#include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/map_costs.h"
 #include "stereo_safety_map/core/param_fields.h"
 #include "stereo_safety_map/core/safety_mapper.h"
@@ -70,8 +72,11 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapRosConfig* config)
 /// lists, ros/nodelet_params.h).
 std::vector<std::string> safetyMapParameterNames();
 
-/// Parameters set in pnh's namespace (first level) that are not in `known`: likely typos.
-std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,
-                                           const std::vector<std::string>& known);
+/// The safety-map nodelet's landmark-filter parameters: use_landmark_filter and the
+/// LandmarkFilterConfig fields prefixed with landmark_ (landmark_gate_chi2, ...; the depth range
+/// and the stationary-frame thresholds are the mapper's, see LandmarkStreamConfig::forMapper()).
+std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* config);
+/// The names read by the function above (core/config_fields.h: landmarkStreamFields()).
+std::vector<std::string> landmarkParameterNames();
 
 }  // namespace stereo_safety_map

@@ -1,4 +1,4 @@
-#include "stereo_safety_map/ros/fusion_params.h"
+#include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
@@ -41,14 +41,6 @@ std::string finishHybrid(HybridSafetyMapParams* p) {
 }
 
 }  // namespace
-
-std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* c) {
-  return readParams(pnh, landmarkStreamFields(), c);
-}
-
-std::vector<std::string> landmarkParameterNames() {
-  return landmarkStreamFields().names();
-}
 
 std::string HybridSafetyMapRosConfig::validate() const {
   if (fixed_frame.empty()) return "fixed_frame must not be empty";

@@ -1,15 +1,14 @@
-// Validated loading of the parameters of paper 001's parts (Murarka, Modayil & Kuipers 2006):
-// the landmark filter of the safety-map nodelet's point stream (core/landmark_filter.h, Sec. 4.2)
-// and the hybrid safety-map nodelet (core/laser_grid.h, core/hybrid_safety_map.h, Sec. 2, 3, 5).
+// The hybrid safety-map nodelet's parameters (paper 001, Murarka, Modayil & Kuipers 2006:
+// core/laser_grid.h, core/hybrid_safety_map.h, Sec. 2, 3, 5). The landmark filter of 001 Sec. 4.2
+// runs in the safety-map nodelet; its parameters are in safety_map_params.h.
 //
-// As params.h: flat names in the nodelet's private namespace, absent parameters keep the core's
-// defaults, wrong types and out-of-range values are refused with one message naming the
+// As safety_map_params.h: flat names in the nodelet's private namespace, absent parameters keep the
+// core's defaults, wrong types and out-of-range values are refused with one message naming the
 // parameter, its value and the allowed range.
 #pragma once
 
 #include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/hybrid_safety_map.h"
-#include "stereo_safety_map/core/landmark_filter.h"
 #include "stereo_safety_map/core/laser_grid.h"
 #include "stereo_safety_map/core/param_fields.h"
 
@@ -19,13 +18,6 @@
 #include <vector>
 
 namespace stereo_safety_map {
-
-/// The safety-map nodelet's landmark-filter parameters: use_landmark_filter and the
-/// LandmarkFilterConfig fields prefixed with landmark_ (landmark_gate_chi2, ...; the depth range
-/// and the stationary-frame thresholds are the mapper's, see LandmarkStreamConfig::forMapper()).
-std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* config);
-/// The names read by the function above (core/config_fields.h: landmarkStreamFields()).
-std::vector<std::string> landmarkParameterNames();
 
 /// Settings of the hybrid safety-map nodelet that are not the core's.
 struct HybridSafetyMapRosConfig {

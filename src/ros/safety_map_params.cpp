@@ -1,4 +1,4 @@
-#include "stereo_safety_map/ros/params.h"
+#include "stereo_safety_map/ros/safety_map_params.h"
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
@@ -176,22 +176,12 @@ std::vector<std::string> safetyMapParameterNames() {
   return nodeletParameterNames("safety_map");
 }
 
-std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,
-                                           const std::vector<std::string>& known) {
-  std::vector<std::string> all;
-  std::vector<std::string> unknown;
-  if (!pnh.getParamNames(all)) return unknown;
-  const std::string prefix = pnh.getNamespace() + "/";
-  for (const std::string& name : all) {
-    if (name.compare(0, prefix.size(), prefix) != 0) continue;
-    std::string rest = name.substr(prefix.size());
-    rest = rest.substr(0, rest.find('/'));  // first level only
-    if (std::find(known.begin(), known.end(), rest) == known.end() &&
-        std::find(unknown.begin(), unknown.end(), rest) == unknown.end()) {
-      unknown.push_back(rest);
-    }
-  }
-  return unknown;
+std::string fromRosParam(const ros::NodeHandle& pnh, LandmarkStreamConfig* c) {
+  return readParams(pnh, landmarkStreamFields(), c);
+}
+
+std::vector<std::string> landmarkParameterNames() {
+  return landmarkStreamFields().names();
 }
 
 }  // namespace stereo_safety_map
