@@ -28,4 +28,22 @@ inline stereo_safety_map::dataset::Primitive alignedBox(const Eigen::Vector3d& l
   return ds::makeConvex(planes);
 }
 
+/// A floor slab (top z = 0, 1 m thick) over floor_lo..floor_hi (x, y) and a box lo..hi on it.
+inline stereo_safety_map::dataset::Scene floorWithBox(const Eigen::Vector2d& floor_lo,
+                                                      const Eigen::Vector2d& floor_hi,
+                                                      const Eigen::Vector3d& box_lo,
+                                                      const Eigen::Vector3d& box_hi) {
+  namespace ds = stereo_safety_map::dataset;
+  ds::Scene sc;
+  ds::Primitive floor = alignedBox(Eigen::Vector3d(floor_lo.x(), floor_lo.y(), -1.0),
+                                   Eigen::Vector3d(floor_hi.x(), floor_hi.y(), 0.0));
+  floor.name = "floor";
+  floor.ground = true;
+  sc.add(floor);
+  ds::Primitive box = alignedBox(box_lo, box_hi);
+  box.name = "box";
+  sc.add(box);
+  return sc;
+}
+
 }  // namespace scene_solids

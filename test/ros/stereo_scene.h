@@ -91,21 +91,10 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
 /// constants to the bit).
 inline const stereo_safety_map::dataset::Scene& scene() {
   namespace ds = stereo_safety_map::dataset;
-  static const ds::Scene s = [] {
-    ds::Scene sc;
-    ds::Primitive floor =
-        scene_solids::alignedBox(Eigen::Vector3d(kFloorMin[0], kFloorMin[1], -1.0),
-                                 Eigen::Vector3d(kFloorMax[0], kFloorMax[1], 0.0));
-    floor.name = "floor";
-    floor.ground = true;
-    sc.add(floor);
-    ds::Primitive box =
-        scene_solids::alignedBox(Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
-                                 Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
-    box.name = "box";
-    sc.add(box);
-    return sc;
-  }();
+  static const ds::Scene s = scene_solids::floorWithBox(
+      Eigen::Vector2d(kFloorMin[0], kFloorMin[1]), Eigen::Vector2d(kFloorMax[0], kFloorMax[1]),
+      Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
+      Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
   return s;
 }
 

@@ -78,20 +78,10 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
 /// on the constants to the bit).
 inline const stereo_safety_map::dataset::Scene& scene() {
   namespace ds = stereo_safety_map::dataset;
-  static const ds::Scene s = [] {
-    ds::Scene sc;
-    ds::Primitive floor = scene_solids::alignedBox(Eigen::Vector3d(-500.0, -500.0, -1.0),
-                                                   Eigen::Vector3d(500.0, 500.0, 0.0));
-    floor.name = "floor";
-    floor.ground = true;
-    sc.add(floor);
-    ds::Primitive box =
-        scene_solids::alignedBox(Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
+  static const ds::Scene s =
+      scene_solids::floorWithBox(Eigen::Vector2d(-500.0, -500.0), Eigen::Vector2d(500.0, 500.0),
+                                 Eigen::Vector3d(kBoxMin[0], kBoxMin[1], kBoxMin[2]),
                                  Eigen::Vector3d(kBoxMax[0], kBoxMax[1], kBoxMax[2]));
-    box.name = "box";
-    sc.add(box);
-    return sc;
-  }();
   return s;
 }
 

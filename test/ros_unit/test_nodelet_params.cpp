@@ -14,8 +14,8 @@
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
-#include "stereo_safety_map/ros/safety_map_params.h"
 #include "stereo_safety_map/ros/reconfigure_fields.h"
+#include "stereo_safety_map/ros/safety_map_params.h"
 
 #include <gtest/gtest.h>
 #include <stereo_safety_map/DisparityConfig.h>

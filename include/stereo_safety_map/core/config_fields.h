@@ -1,7 +1,7 @@
 // The field lists of the core's configurations (param_fields.h): the one place a core parameter
 // is declared. The nodelets' own settings (frames, queues) have their lists next to their
-// structs in the ROS layer (ros/safety_map_params.h, ros/disparity_params.h, ...), and ros/nodelet_params.h
-// puts each nodelet's lists together in README order.
+// structs in the ROS layer (ros/safety_map_params.h, ros/disparity_params.h, ...), and
+// ros/nodelet_params.h puts each nodelet's lists together in README order.
 //
 // To add a core parameter: one add(...) line in the list of its config struct
 // (src/core/safety_map_fields.cpp for the safety map, src/core/config_fields.cpp for the

@@ -49,8 +49,8 @@
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/safety_map_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/safety_map_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
