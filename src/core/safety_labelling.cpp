@@ -102,6 +102,17 @@ int SafetyLabelling::okCount(int s, int r) const {
   return (it != last && it->r == r) ? it->ok : 0;
 }
 
+bool SafetyLabelling::borderFailed(int s, int r) const {
+  auto failedOn = [&](int a, int b) {
+    const auto first = edges_.begin() + edge_begin_[a];
+    const auto last = edges_.begin() + edge_begin_[a + 1];
+    const auto it =
+        std::lower_bound(first, last, b, [](const Edge& e, int key) { return e.r < key; });
+    return it != last && it->r == b && it->failed > 0;
+  };
+  return failedOn(s, r) || failedOn(r, s);
+}
+
 bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
                             const std::vector<GroundPlane>& planes, double voxel_size,
                             SafetyMap* map) {
@@ -376,15 +387,16 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   edge_begin_.assign(nseg + 1, 0);
   for (std::size_t i = 0; i < contacts_.size();) {
     std::size_t j = i;
-    int ok = 0;
+    int ok = 0, failed = 0;
     float rise = std::numeric_limits<float>::quiet_NaN();
     while (j < contacts_.size() && contacts_[j].s == contacts_[i].s &&
            contacts_[j].r == contacts_[i].r) {
       ok += contacts_[j].ok;
+      failed += contacts_[j].ok ? 0 : 1;
       if (!(rise >= contacts_[j].rise)) rise = contacts_[j].rise;  // NaN-safe max
       ++j;
     }
-    edges_.push_back(Edge{contacts_[i].r, ok, rise});
+    edges_.push_back(Edge{contacts_[i].r, ok, failed, rise});
     ++edge_begin_[contacts_[i].s + 1];
     i = j;
   }
@@ -600,7 +612,11 @@ void SafetyLabelling::labelIsolatedGround(const HeightMap& hm, const SafetyMap& 
       group_stack_.pop_back();
       for (int e = edge_begin_[s]; e < edge_begin_[s + 1]; ++e) {
         const int r = edges_[e].r;
-        if (seg_state_[r] == kStSafe) group_blocked_[g] = 1;  // a border the robot cannot cross
+        // A border to safe ground with a step the robot cannot cross. One whose every contact
+        // is crossable but that is narrower than num_T measured no discontinuity: the footprint
+        // bridge's reach grazing ground seen beyond the blind zone, a few cells of two patches
+        // of sparse stereo that touch.
+        if (seg_state_[r] == kStSafe && borderFailed(s, r)) group_blocked_[g] = 1;
         if (seg_state_[r] != kStUnexamined || group_[r] >= 0) continue;
         if (edges_[e].ok > 0 || okCount(r, s) > 0) {
           group_[r] = g;
@@ -615,7 +631,7 @@ void SafetyLabelling::labelIsolatedGround(const HeightMap& hm, const SafetyMap& 
     if (seg_state_[s] != kStSafe) continue;
     for (int e = edge_begin_[s]; e < edge_begin_[s + 1]; ++e) {
       const int g = group_[edges_[e].r];
-      if (g >= 0) group_blocked_[g] = 1;
+      if (g >= 0 && borderFailed(s, edges_[e].r)) group_blocked_[g] = 1;
     }
   }
   if (std::all_of(group_blocked_.begin(), group_blocked_.end(), [](std::uint8_t b) { return b; }))

@@ -228,9 +228,9 @@ ParamFieldList<M> makeMapperFields() {
   l.add("isolated_ground_unknown", &M::labelling, &SafetyLabellingConfig::isolated_ground_unknown)
       .doc(
           "ground that is not reached only because no observed border leads to it (no border to "
-          "safe ground, height within h_T + d tan(theta_max) of the nearest safe cell) is Unknown, "
-          "not Non-ground; a failed step or an implausible height keeps Non-ground (ours; false = "
-          "000 Alg. 2 step 27).");
+          "safe ground with a failed step, height within h_T + d tan(theta_max) of the nearest "
+          "safe cell) is Unknown, not Non-ground; a failed step or an implausible height keeps "
+          "Non-ground (ours; false = 000 Alg. 2 step 27).");
   l.add("drop_off_margin", &M::labelling, &SafetyLabellingConfig::drop_off_margin)
       .doc(
           "border cells of safe segments beside an observed surface lower by more than "

@@ -43,7 +43,7 @@ SafetyMap mapInWorld(const SafetyMap& map, const Eigen::Isometry2d& T_world_odom
   out.resolution = gt.resolution;
   Eigen::AlignedBox2d box;
   const double l = map.resolution;
-  for (const Eigen::Vector2d c :
+  for (const Eigen::Vector2d& c :
        {Eigen::Vector2d(map.min_u, map.min_v), Eigen::Vector2d(map.min_u + map.width, map.min_v),
         Eigen::Vector2d(map.min_u, map.min_v + map.height),
         Eigen::Vector2d(map.min_u + map.width, map.min_v + map.height)}) {

@@ -826,5 +826,31 @@ TEST(SafetyLabellingFootprintBridge, ALowerFloorOrAWallInBetweenIsNotBridged) {
   }
 }
 
+TEST(SafetyLabellingFootprintBridge, AFloorTheBridgeOnlyGrazesIsUnknownAStepBeyondItNonGround) {
+  // The floor seen from u = 20 on: the bridge's reach (1.5 m from the footprint's boundary)
+  // touches only its nearest cells, fewer than num_T, so it is not reached. Those contacts are
+  // crossable: nothing measured a discontinuity, and a drivable slope could reach it: Unknown
+  // (isolated_ground_unknown), not Non-ground. The same floor 10 cm up fails the bridge's step
+  // test: a measured step, Non-ground.
+  GroundSegmentationConfig sc;
+  std::vector<std::string> rows = blindZone('0');
+  for (std::string& r : rows)
+    for (int u = 14; u < 20; ++u)
+      r[u] = '.';
+  for (const double z : {0.0, 0.10}) {
+    World w(rows, 2, 5, 0, sc);
+    setSurfaces(&w.hm);
+    w.planeAt(22, 5) = horizontal(z);
+    SafetyLabellingConfig c;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_FALSE(w.map.segments[w.segAt(22, 5)].reachable) << z;
+    EXPECT_EQ(w.at(22, 5), z == 0.0 ? L::kUnknown : L::kNonGround) << z;
+    // Without the bridge there is no border at all: Unknown either way.
+    c.footprint_bridge = 0.0;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(22, 5), L::kUnknown) << z;
+  }
+}
+
 }  // namespace
 }  // namespace stereo_safety_map

@@ -80,7 +80,10 @@ struct SafetyLabellingConfig {
   /// low-texture floor between the robot and a ramp 3 m away leaves the ramp with no border to
   /// any safe segment, and Alg. 2 then calls a drivable ramp an obstacle. With this on, the
   /// segments not reached are grouped by their crossable borders; a group with no border to a
-  /// safe segment (touching, across max_gap_cells or the footprint bridge) and no cell within
+  /// safe segment that has a failed contact (touching, across max_gap_cells or the footprint
+  /// bridge; a border whose every contact is crossable but too short for num_T, e.g. where the
+  /// footprint bridge's reach only grazes ground seen beyond the blind zone, is no measured
+  /// discontinuity) and no cell within
   /// max_gap_cells + 2 cells of safe ground is Unknown when a boundary cell of it could be
   /// reached from its nearest safe cell along a drivable slope over cells of which nothing was
   /// seen: its plane's height there differs from the safe cell's by at most h_T + d
@@ -146,9 +149,11 @@ class SafetyLabelling {
   struct Edge {  // all contacts of s with r, s's side only
     int r;
     int ok;
+    int failed;  // contacts that are not crossable
     float rise;  // the largest rise of s over r along the border (NaN when none measured)
   };
-  int okCount(int s, int r) const;  // s's side of the s-r border, 0 when not neighbours
+  int okCount(int s, int r) const;        // s's side of the s-r border, 0 when not neighbours
+  bool borderFailed(int s, int r) const;  // a contact of the s-r border (either side) failed
   // isolated_ground_unknown, after Alg. 2 steps 5-26: turns the groups of unreached segments
   // without a border to safe ground that a drivable slope could reach into Unknown.
   void labelIsolatedGround(const HeightMap& hm, const SafetyMap& m, const GroundSegments& segs);
