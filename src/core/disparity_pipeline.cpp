@@ -238,6 +238,11 @@ cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
   return bm;
 }
 
+cv::Ptr<cv::StereoMatcher> DisparityPipeline::matcherFor(const DisparityPipelineConfig& config) {
+  const MatcherKey key = keyOf(config);
+  return createMatcher(key, key.uniqueness_ratio);
+}
+
 void DisparityPipeline::ensureMatchers() {
   const MatcherKey key = keyOf(config_);
   if (left_matcher_ && key == key_) return;

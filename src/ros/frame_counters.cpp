@@ -46,4 +46,21 @@ void FrameCounters::nextWindow(const ros::WallTime& now, double window) {
   window_received = window_processed = window_dropped = 0;
 }
 
+void FrameBooks::countReceived() const {
+  std::lock_guard<std::mutex> lock(stats_mutex);
+  counts.countReceived();
+}
+
+void FrameBooks::reject(const std::string& reason, const std::string& detail) const {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex);
+    if (reason == "missing tf") {
+      ++counts.tf_failures;
+    } else {
+      ++counts.rejected;
+    }
+  }
+  problems.report(reason, detail);
+}
+
 }  // namespace stereo_safety_map

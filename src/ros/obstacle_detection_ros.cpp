@@ -6,10 +6,8 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
-#include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
 
 #include <opencv2/imgproc.hpp>
@@ -129,7 +127,7 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
   worker_ = std::thread([this] {
     slot_.work([this](const Frame& frame) { processFrame(frame); }, [this] { return 0.0; },
                [this](const std::string& what) {
-                 reject("exception", "frame skipped after an exception: " + what);
+                 books_.reject("exception", "frame skipped after an exception: " + what);
                });
   });
   setUpInputs();
@@ -154,66 +152,23 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
 ObstacleDetectionRos::~ObstacleDetectionRos() {
   {
     std::lock_guard<std::mutex> lock(connect_mutex_);
-    disparity_sub_.unsubscribe();
-    left_info_sub_.unsubscribe();
-    cloud_sub_.unsubscribe();
+    if (input_) input_->shutdown();  // none when the parameters were refused
     subscribed_ = false;
   }
-  approximate_sync_.reset();
-  disparity_filter_.reset();
-  cloud_filter_.reset();
-  exact_matcher_.reset();
   slot_.stop();
   if (worker_.joinable()) worker_.join();
   diagnostics_->stop();
 }
 
 void ObstacleDetectionRos::setUpInputs() {
-  const int q = ros_config_.queue_size;
-  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(kTfCacheTime));
-  tf_listener_ = std::make_shared<tf2_ros::TransformListener>(*tf_buffer_, nh_);
-  if (ros_config_.input == "cloud") {
-    cloud_sub_.registerCallback([this](const sensor_msgs::PointCloud2ConstPtr&) {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      counts_.countReceived();
-    });
-    cloud_filter_ =
-        std::make_unique<CloudFilter>(cloud_sub_, *tf_buffer_, ros_config_.fixed_frame, q, nh_);
-    cloud_filter_->registerCallback(
-        boost::bind(&ObstacleDetectionRos::cloudCb, this, boost::placeholders::_1));
-    cloud_filter_->registerFailureCallback(
-        [this](const sensor_msgs::PointCloud2ConstPtr& m,
-               tf2_ros::filter_failure_reasons::FilterFailureReason r) {
-          tfFailure(m->header, r);
-        });
-    return;
-  }
-  disparity_sub_.registerCallback([this](const stereo_msgs::DisparityImageConstPtr&) {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    counts_.countReceived();
+  auto options = StereoInput::Options::of(ros_config_);
+  options.cloud = ros_config_.input == "cloud";
+  options.right_info = false;
+  options.lazy = true;
+  options.tf_hint = "Gravity is that frame's z axis: is the tf tree complete?";
+  input_ = std::make_unique<StereoInput>(nh_, options, books_, [this](StereoFrame&& in) {
+    enqueue(std::make_unique<Frame>(std::move(in)));
   });
-  disparity_filter_ = std::make_unique<DisparityFilter>(disparity_sub_, *tf_buffer_,
-                                                        ros_config_.fixed_frame, q, nh_);
-  disparity_filter_->registerFailureCallback(
-      [this](const stereo_msgs::DisparityImageConstPtr& m,
-             tf2_ros::filter_failure_reasons::FilterFailureReason r) { tfFailure(m->header, r); });
-  if (ros_config_.approximate_sync) {
-    approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
-        ApproximatePolicy(q), *disparity_filter_, left_info_sub_);
-    approximate_sync_->registerCallback(boost::bind(&ObstacleDetectionRos::disparityCb, this,
-                                                    boost::placeholders::_1,
-                                                    boost::placeholders::_2));
-  } else {
-    exact_matcher_ = std::make_unique<FrameMatcher>(  // exact_stamp_matcher.h: why not ExactTime
-        FrameMatcher::Limits::forNodelet(q),
-        [this](const stereo_msgs::DisparityImageConstPtr& d,
-               const sensor_msgs::CameraInfoConstPtr& l) { disparityCb(d, l); },
-        [this](const ros::Time& stamp, const std::string& why) {
-          reject("no camera info", unmatchedDisparityMessage(stamp, why));
-        });
-    exact_matcher_->connectInput<0>(*disparity_filter_);
-    exact_matcher_->connectInput<1>(left_info_sub_);
-  }
 }
 
 void ObstacleDetectionRos::connectCb() {
@@ -222,47 +177,12 @@ void ObstacleDetectionRos::connectCb() {
                         obstacles_pub_.getNumSubscribers() > 0 ||
                         markers_pub_.getNumSubscribers() > 0;
   if (!listened && subscribed_) {
-    disparity_sub_.unsubscribe();
-    left_info_sub_.unsubscribe();
-    cloud_sub_.unsubscribe();
+    input_->unsubscribe();
     subscribed_ = false;
   } else if (listened && !subscribed_) {
-    const int q = ros_config_.queue_size;
-    if (ros_config_.input == "cloud") {
-      cloud_sub_.subscribe(nh_, "points", q);
-    } else {
-      disparity_sub_.subscribe(nh_, "stereo/disparity", q);
-      left_info_sub_.subscribe(nh_, "stereo/left/camera_info", q);
-    }
+    input_->subscribe();
     subscribed_ = true;
   }
-}
-
-void ObstacleDetectionRos::tfFailure(const std_msgs::Header& header,
-                                     tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++counts_.tf_failures;
-  }
-  reject("missing tf",
-         tfFilterFailureMessage("frame", header, ros_config_.fixed_frame, reason,
-                                "Gravity is that frame's z axis: is the tf tree complete?"));
-}
-
-void ObstacleDetectionRos::disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
-                                       const sensor_msgs::CameraInfoConstPtr& left_info) {
-  auto frame = std::make_unique<Frame>();
-  frame->header = disparity->header;
-  frame->disparity = disparity;
-  frame->left_info = left_info;
-  enqueue(std::move(frame));
-}
-
-void ObstacleDetectionRos::cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud) {
-  auto frame = std::make_unique<Frame>();
-  frame->header = cloud->header;
-  frame->cloud = cloud;
-  enqueue(std::move(frame));
 }
 
 void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
@@ -277,63 +197,36 @@ void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
   }
 }
 
-void ObstacleDetectionRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++counts_.rejected;
-  }
-  problems_.report(reason, detail);
-}
-
 void ObstacleDetectionRos::processFrame(const Frame& frame) {
   const auto t0 = std::chrono::steady_clock::now();
 
   // Gravity: the fixed frame's z axis, from the camera's pose at the frame's stamp (the tf
   // filter has waited for it).
-  Eigen::Isometry3f T_fixed_camera;
-  try {
-    T_fixed_camera = tf2::transformToEigen(tf_buffer_->lookupTransform(ros_config_.fixed_frame,
-                                                                       frame.header.frame_id,
-                                                                       frame.header.stamp))
-                         .cast<float>();
-  } catch (const tf2::TransformException& e) {
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++counts_.tf_failures;
-    }
-    reject("missing tf", std::string("dropped a frame: tf lookup failed: ") + e.what());
-    return;
-  }
+  FramePose pose;
+  if (!input_->lookUp(frame.header, "", "", 0.0, &pose)) return;
+  const Eigen::Isometry3f& T_fixed_camera = pose.T_fixed_sensor;
 
   // The range image (camera optical frame, NaN = missing), limited to [min_depth, max_depth].
   double f = 0.0;
   std::size_t non_finite = 0;
   if (frame.disparity) {
-    std::string err = cameraModelForDisparity(*frame.disparity, *frame.left_info, &camera_);
-    if (!err.empty()) {
-      reject("bad camera model", "dropped a disparity frame: " + err);
-      return;
-    }
     DisparityImageStats stats;
-    err = disparityImageToMat(*frame.disparity, &disparity_, &stats);
-    if (!err.empty()) {
-      reject("bad disparity image", "dropped a disparity frame: " + err);
-      return;
-    }
+    if (!input_->toCore(frame, &camera_, &disparity_, &stats)) return;
     non_finite = stats.non_finite;
     reprojectDisparityOrganized(disparity_, camera_, ros_config_.max_depth, &xyz_);
     f = std::max(camera_.fx, camera_.fy);
   } else {
     const std::string err = organisedCloudToMat(*frame.cloud, &xyz_, &non_finite);
     if (!err.empty()) {
-      reject("bad point cloud", "dropped a cloud: " + err);
+      books_.reject("bad point cloud", "dropped a cloud: " + err);
       return;
     }
     f = ros_config_.focal_length > 0.0 ? ros_config_.focal_length : estimateFocalLength(xyz_);
     if (!(f > 0.0)) {
-      reject("unknown focal length",
-             "dropped a cloud: too few valid points to estimate the focal length from it (set "
-             "~focal_length)");
+      books_.reject(
+          "unknown focal length",
+          "dropped a cloud: too few valid points to estimate the focal length from it (set "
+          "~focal_length)");
       return;
     }
   }
@@ -356,10 +249,10 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
     counts_.non_finite += non_finite;
   }
   if (valid == 0) {
-    reject(non_finite > 0 ? "non-finite input" : "no valid data",
-           "dropped a frame without a valid point within [min_depth, max_depth] (" +
-               str(static_cast<double>(non_finite)) + " NaN / inf of " +
-               str(static_cast<double>(xyz_.total())) + ")");
+    books_.reject(non_finite > 0 ? "non-finite input" : "no valid data",
+                  "dropped a frame without a valid point within [min_depth, max_depth] (" +
+                      str(static_cast<double>(non_finite)) + " NaN / inf of " +
+                      str(static_cast<double>(xyz_.total())) + ")");
     return;
   }
 
@@ -370,7 +263,7 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
   const double detect_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   if (!ok) {
-    reject("refused by the core", "dropped a frame: " + result_.error);
+    books_.reject("refused by the core", "dropped a frame: " + result_.error);
     return;
   }
 

@@ -107,7 +107,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     slot_.work([this](const Frame& frame) { processFrame(frame); },
                [this] { return max_rate_.load(); },
                [this](const std::string& what) {
-                 reject("exception", "frame skipped after an exception: " + what);
+                 books_.reject("exception", "frame skipped after an exception: " + what);
                });
   });
   age_timer_ = nh_.createWallTimer(ros::WallDuration(kAgePeriod),
@@ -131,24 +131,9 @@ SafetyMapRos::~SafetyMapRos() {
   reset_srv_.shutdown();
   save_srv_.shutdown();
   reconfigure_.reset();
-  disparity_sub_.shutdown();
-  left_info_sub_.shutdown();
-  right_info_sub_.shutdown();
-  cloud_sub_.shutdown();
-  approximate_sync_.reset();
-  disparity_filter_.reset();
-  cloud_filter_.reset();
-  exact_matcher_.reset();
+  if (input_) input_->shutdown();  // none when the parameters were refused
   slot_.stop();
   if (worker_.joinable()) worker_.join();
-}
-
-void SafetyMapRos::reject(const std::string& reason, const std::string& detail) {
-  if (reason != "missing tf") {  // tf drops are counted in counts_.tf_failures
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++counts_.rejected;
-  }
-  problems_.report(reason, detail);
 }
 
 void SafetyMapRos::processFrame(const Frame& frame) {
@@ -162,8 +147,9 @@ void SafetyMapRos::processFrame(const Frame& frame) {
                           << stamp << " after " << last_stamp_
                           << ", the clock went back too; a bag restarted?): resetting the map");
   } else if (!last_stamp_.isZero() && stamp <= last_stamp_) {
-    reject("out of order", "dropped a frame out of order: stamp " + std::to_string(stamp.toSec()) +
-                               " is not newer than the last frame's");
+    books_.reject("out of order", "dropped a frame out of order: stamp " +
+                                      std::to_string(stamp.toSec()) +
+                                      " is not newer than the last frame's");
     return;
   }
 
@@ -171,75 +157,34 @@ void SafetyMapRos::processFrame(const Frame& frame) {
   // may need a moment more.
   // A cloud already in another frame (sensor_frame set): the rays start at the sensor, so the
   // points go to the sensor's frame and the pose is the sensor's.
-  Eigen::Isometry3f T_fixed_sensor;
-  Eigen::Isometry3f T_sensor_data = Eigen::Isometry3f::Identity();
   const bool cloud_in_other_frame = frame.cloud && !ros_config_.sensor_frame.empty() &&
                                     ros_config_.sensor_frame != frame.header.frame_id;
-  Eigen::Vector3f robot_position;
-  try {
-    if (cloud_in_other_frame) {
-      T_fixed_sensor = tf2::transformToEigen(tf_buffer_->lookupTransform(
-                                                 ros_config_.fixed_frame, ros_config_.sensor_frame,
-                                                 stamp, ros::Duration(ros_config_.tf_timeout)))
-                           .cast<float>();
-      T_sensor_data = tf2::transformToEigen(tf_buffer_->lookupTransform(
-                                                ros_config_.sensor_frame, frame.header.frame_id,
-                                                stamp, ros::Duration(ros_config_.tf_timeout)))
-                          .cast<float>();
-    } else {
-      T_fixed_sensor =
-          tf2::transformToEigen(
-              tf_buffer_->lookupTransform(ros_config_.fixed_frame, frame.header.frame_id, stamp))
-              .cast<float>();
-    }
-    const geometry_msgs::TransformStamped base =
-        tf_buffer_->lookupTransform(ros_config_.fixed_frame, ros_config_.base_frame, stamp,
-                                    ros::Duration(ros_config_.tf_timeout));
-    robot_position = Eigen::Vector3f(static_cast<float>(base.transform.translation.x),
-                                     static_cast<float>(base.transform.translation.y),
-                                     static_cast<float>(base.transform.translation.z));
-  } catch (const tf2::TransformException& e) {
-    {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++counts_.tf_failures;
-    }
-    reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +
-                             ": tf lookup failed: " + e.what());
+  FramePose pose;
+  if (!input_->lookUp(frame.header, frame.cloud ? ros_config_.sensor_frame : std::string(),
+                      ros_config_.base_frame, ros_config_.tf_timeout, &pose)) {
     return;
   }
+  const Eigen::Isometry3f& T_fixed_sensor = pose.T_fixed_sensor;
+  const Eigen::Vector3f& robot_position = pose.base;
 
   // Convert the input (worker-owned buffers) and refuse what the core must not see.
   std::size_t non_finite = 0;
   std::size_t values = 0;  // pixels or points of the input
   if (frame.disparity) {
-    std::string err = cameraModelFromCameraInfo(*frame.left_info, *frame.right_info, &camera_);
-    if (err.empty()) err = cameraModelForDisparity(*frame.disparity, *frame.left_info, &camera_);
-    if (!err.empty()) {
-      reject("bad camera model", "dropped a disparity frame: " + err);
-      return;
-    }
     DisparityImageStats stats;
-    err = disparityImageToMat(*frame.disparity, &disparity_, &stats);
-    if (!err.empty()) {
-      reject("bad disparity image", "dropped a disparity frame: " + err);
-      return;
-    }
+    if (!input_->toCore(frame, &camera_, &disparity_, &stats)) return;
     non_finite = stats.non_finite;
     values = stats.pixels;
     if (frozen(frame)) return;
-    if (stats.non_finite + stats.out_of_range >= stats.pixels) {
-      std::ostringstream os;
-      os << "dropped a disparity frame without a valid pixel (" << stats.non_finite
-         << " NaN / inf and " << stats.out_of_range << " outside [min_disparity, max_disparity]"
-         << " of " << stats.pixels << ")";
-      reject(stats.non_finite > 0 ? "non-finite input" : "no valid data", os.str());
+    if (StereoInput::noValidPixel(stats)) {
+      input_->rejectWithoutValidPixel(stats);
       return;
     }
   } else if (frame.cloud) {
     CloudStats stats;
     const std::string err = pointCloud2ToPoints(*frame.cloud, &points_, &stats);
     if (!err.empty()) {
-      reject("bad point cloud", "dropped a cloud: " + err);
+      books_.reject("bad point cloud", "dropped a cloud: " + err);
       return;
     }
     non_finite = stats.non_finite;
@@ -247,13 +192,13 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     if (frozen(frame)) return;
     if (cloud_in_other_frame) {
       for (Eigen::Vector3f& p : points_)
-        p = T_sensor_data * p;
+        p = pose.T_sensor_data * p;
     }
     if (points_.empty()) {
       std::ostringstream os;
       os << "dropped a cloud without a finite point (" << stats.non_finite << " NaN / inf of "
          << stats.points << ")";
-      reject("non-finite input", os.str());
+      books_.reject("non-finite input", os.str());
       return;
     }
   }
@@ -348,10 +293,10 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     std::ostringstream os;
     os << "dropped a frame without a point within [min_range, max_range] (" << non_finite
        << " NaN / inf of " << values << ")";
-    reject(non_finite > 0 ? "non-finite input" : "no valid data", os.str());
+    books_.reject(non_finite > 0 ? "non-finite input" : "no valid data", os.str());
     return;
   }
-  reject("refused by the core", "frame " + core_error);
+  books_.reject("refused by the core", "frame " + core_error);
 }
 
 bool SafetyMapRos::frozen(const Frame& frame) {
@@ -373,11 +318,11 @@ bool SafetyMapRos::frozen(const Frame& frame) {
   previous_input_width_ = width;
   previous_input_height_ = height;
   if (!same) return false;
-  reject("frozen input", std::string("dropped a frame whose ") +
-                             (frame.disparity ? "disparity" : "cloud") +
-                             " is byte for byte the previous frame's under a new stamp: camera or "
-                             "driver frozen? (a noiseless simulator: set reject_frozen_input "
-                             "false)");
+  books_.reject("frozen input",
+                std::string("dropped a frame whose ") + (frame.disparity ? "disparity" : "cloud") +
+                    " is byte for byte the previous frame's under a new stamp: camera or "
+                    "driver frozen? (a noiseless simulator: set reject_frozen_input "
+                    "false)");
   return true;
 }
 
@@ -613,7 +558,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
                                                 "stale_input_timeout)"
                                               : "live");
   stat.add("times the map went stale", stale_maps_.load());
-  const double since_input = last_arrival_.isZero() ? -1.0 : (now - last_arrival_).toSec();
+  const double since_input =
+      counts_.last_received.isZero() ? -1.0 : (now - counts_.last_received).toSec();
   const double since_used = (now - (last_used_.isZero() ? started_ : last_used_)).toSec();
   stat.addf("last input [s ago]", "%.1f", since_input);
   stat.addf("last frame used [s ago]", "%.1f", last_used_.isZero() ? -1.0 : since_used);
@@ -674,7 +620,7 @@ void SafetyMapRos::obstacleCueCb(const sensor_msgs::PointCloud2ConstPtr& cloud) 
   if (cloud->header.frame_id != ros_config_.fixed_frame && !points.empty()) {
     try {
       const Eigen::Isometry3f T =
-          tf2::transformToEigen(tf_buffer_->lookupTransform(
+          tf2::transformToEigen(input_->tfBuffer().lookupTransform(
                                     ros_config_.fixed_frame, cloud->header.frame_id,
                                     cloud->header.stamp, ros::Duration(ros_config_.tf_timeout)))
               .cast<float>();

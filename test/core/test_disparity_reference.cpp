@@ -29,28 +29,7 @@ namespace ds = dataset;
 // ------------------------------------------------------------------------------------------------
 // Reference pipeline: simple, slow, obviously the algorithm.
 
-cv::Ptr<cv::StereoMatcher> referenceMatcher(const DisparityPipelineConfig& c) {
-  const int uniqueness = c.enable_uniqueness ? c.uniqueness.uniqueness_ratio : 0;
-  if (c.matcher == StereoMatcherType::kSemiGlobal) {
-    const int area = c.block_size * c.block_size;
-    const int p1 = c.sgbm_p1 > 0 ? c.sgbm_p1 : 8 * area;
-    const int p2 = c.sgbm_p2 > 0 ? c.sgbm_p2 : std::max(32 * area, p1 + 1);
-    return cv::StereoSGBM::create(
-        c.min_disparity, c.num_disparities, c.block_size, p1, p2, -1, c.pre_filter_cap, uniqueness,
-        c.speckle_window_size, c.speckle_range,
-        c.sgbm_three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
-  }
-  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(c.num_disparities, c.block_size);
-  bm->setMinDisparity(c.min_disparity);
-  bm->setPreFilterType(cv::StereoBM::PREFILTER_XSOBEL);
-  bm->setPreFilterCap(c.pre_filter_cap);
-  bm->setTextureThreshold(c.bm_texture_threshold);
-  bm->setUniquenessRatio(uniqueness);
-  bm->setSpeckleWindowSize(c.speckle_window_size);
-  bm->setSpeckleRange(c.speckle_range);
-  bm->setDisp12MaxDiff(-1);
-  return bm;
-}
+// The matcher is OpenCV's, set up as the pipeline sets it up (DisparityPipeline::matcherFor).
 
 cv::Mat toPixels(const cv::Mat& raw) {
   cv::Mat d(raw.size(), CV_32FC1);
@@ -92,7 +71,7 @@ cv::Mat referenceRightDisparity(const cv::Mat& left, const cv::Mat& right,
   cv::flip(left, fr, 1);
   cv::copyMakeBorder(fl, ml, 0, 0, pad, 0, cv::BORDER_REPLICATE);
   cv::copyMakeBorder(fr, mr, 0, 0, pad, 0, cv::BORDER_REPLICATE);
-  referenceMatcher(c)->compute(ml, mr, raw);
+  DisparityPipeline::matcherFor(c)->compute(ml, mr, raw);
   cv::Mat raw_right;
   cv::flip(raw.colRange(pad, pad + left.cols), raw_right, 1);
   return toPixels(raw_right);
@@ -177,7 +156,7 @@ void referenceSpikes(const SpikeRemovalConfig& c, cv::Mat* d) {
 cv::Mat referencePipeline(const cv::Mat& left, const cv::Mat& right,
                           const DisparityPipelineConfig& c) {
   cv::Mat raw;
-  referenceMatcher(c)->compute(left, right, raw);
+  DisparityPipeline::matcherFor(c)->compute(left, right, raw);
   cv::Mat d = toPixels(raw);
   if (c.enable_texture) referenceTexture(left, c.texture, &d);
   if (c.enable_left_right) {

@@ -179,6 +179,10 @@ class DisparityPipeline {
   /// How many times the matchers were (re)built; for checking the cache.
   int matcherBuilds() const { return matcher_builds_; }
 
+  /// OpenCV's matcher alone with the settings compute() gives it (fixed-point output): for the
+  /// disparity reference test and the bench, which run it without the pipeline's filters.
+  static cv::Ptr<cv::StereoMatcher> matcherFor(const DisparityPipelineConfig& config);
+
  private:
   struct MatcherKey {
     StereoMatcherType type = StereoMatcherType::kBlockMatching;

@@ -18,6 +18,7 @@
 #include <ros/time.h>
 
 #include <cstdint>
+#include <mutex>
 #include <string>
 
 namespace stereo_safety_map {
@@ -36,10 +37,12 @@ struct FrameCounters {
   std::uint64_t window_processed = 0;
   std::uint64_t window_dropped = 0;
   ros::WallTime window_start;
+  ros::WallTime last_received;  ///< when the last frame was received
 
   void countReceived() {
     ++received;
     ++window_received;
+    last_received = ros::WallTime::now();
   }
   void countDropped() {
     ++dropped;
@@ -70,6 +73,19 @@ struct FrameCounters {
   /// Starts a new window at `now` once this one is at least 1 s long (call after the diagnostics
   /// used it).
   void nextWindow(const ros::WallTime& now, double window);
+};
+
+/// A frame-processing nodelet's books: its counters (guarded by its stats mutex) and its problem
+/// log, for the one way every nodelet counts what it receives and refuses.
+struct FrameBooks {
+  std::mutex& stats_mutex;
+  FrameCounters& counts;
+  ProblemLog& problems;
+
+  void countReceived() const;
+  /// Counts a refused frame (under "missing tf" in tf_failures, else in rejected) and reports it
+  /// under `reason` (a short category), `detail` logged throttled (problem_log.h).
+  void reject(const std::string& reason, const std::string& detail) const;
 };
 
 }  // namespace stereo_safety_map

@@ -8,7 +8,8 @@
 //
 // Inputs are subscribed lazily, only while an output has a subscriber. The data input passes a
 // tf2_ros::MessageFilter (the camera -> fixed_frame transform must exist at its stamp); the
-// disparity is synchronised with the left CameraInfo (exact or approximate).
+// disparity is synchronised with the left CameraInfo (exact or approximate). Both are the shared
+// ros/stereo_input.h (without its message checks).
 //
 // Threading model (as the other nodelets): callbacks on the nodelet manager's threads only put
 // the frame into a one-slot queue; one worker thread owned by this class converts, detects and
@@ -18,24 +19,16 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
-#include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <ros/ros.h>
-#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <stereo_msgs/DisparityImage.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/message_filter.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -70,31 +63,12 @@ class ObstacleDetectionRos {
   const std::string& configError() const { return config_error_; }
 
  private:
-  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
-  using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
-  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo>;
-  using ApproximatePolicy =
-      message_filters::sync_policies::ApproximateTime<stereo_msgs::DisparityImage,
-                                                      sensor_msgs::CameraInfo>;
-
-  struct Frame {
-    std_msgs::Header header;
-    stereo_msgs::DisparityImageConstPtr disparity;
-    sensor_msgs::CameraInfoConstPtr left_info;
-    sensor_msgs::PointCloud2ConstPtr cloud;
-  };
+  using Frame = StereoFrame;
 
   void setUpInputs();
   void connectCb();
-  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
-                   const sensor_msgs::CameraInfoConstPtr& left_info);
-  void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
-  void tfFailure(const std_msgs::Header& header,
-                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
   void enqueue(std::unique_ptr<Frame> frame);
   void processFrame(const Frame& frame);
-  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
-  void reject(const std::string& reason, const std::string& detail);
 
   void publishLabelImage(const std_msgs::Header& header);
   void publishObstacles(const std_msgs::Header& header, const Eigen::Isometry3f& T_fixed_camera);
@@ -112,15 +86,7 @@ class ObstacleDetectionRos {
   // Inputs (subscribed lazily, under connect_mutex_).
   std::mutex connect_mutex_;
   bool subscribed_ = false;
-  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
-  message_filters::Subscriber<stereo_msgs::DisparityImage> disparity_sub_;
-  message_filters::Subscriber<sensor_msgs::CameraInfo> left_info_sub_;
-  message_filters::Subscriber<sensor_msgs::PointCloud2> cloud_sub_;
-  std::unique_ptr<DisparityFilter> disparity_filter_;
-  std::unique_ptr<CloudFilter> cloud_filter_;
-  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
-  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  std::unique_ptr<StereoInput> input_;  ///< (stereo_input.h)
 
   // Outputs.
   ros::Publisher label_image_pub_;
@@ -143,6 +109,7 @@ class ObstacleDetectionRos {
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
   FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
+  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
   double detection_ms_last_ = 0.0;
   double focal_length_last_ = 0.0;
   std::size_t valid_points_last_ = 0;

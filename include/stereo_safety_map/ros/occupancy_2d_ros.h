@@ -5,9 +5,10 @@
 // (stereo_safety_map/Occupancy2DNodelet). The disparity's own validation and spike removal (002
 // Sec. 2.2, 4.2) happen upstream, in the disparity nodelet.
 //
-// Inputs are synchronised as in the safety-map nodelet: the DisparityImage passes a
-// tf2_ros::MessageFilter (its frame must be transformable into fixed_frame at its stamp), then an
-// exact (or approximate) sync with the left / right CameraInfo. Threading as there too: callbacks
+// Inputs are synchronised as in the safety-map nodelet (the shared ros/stereo_input.h, without
+// its message checks): the DisparityImage passes a tf2_ros::MessageFilter (its frame must be
+// transformable into fixed_frame at its stamp), then an exact (or approximate) sync with the
+// left / right CameraInfo. Threading as there too: callbacks
 // only fill a one-slot queue (newest frame wins, replaced frames are counted as drops); one worker
 // thread converts, updates the grid and publishes; the grid is guarded by core_mutex_, which
 // ~reset takes as well.
@@ -15,25 +16,17 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
-#include <message_filters/subscriber.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
-#include <sensor_msgs/CameraInfo.h>
 #include <std_srvs/Empty.h>
-#include <stereo_msgs/DisparityImage.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/message_filter.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <opencv2/core.hpp>
 
@@ -64,28 +57,11 @@ class Occupancy2DRos {
   const std::string& configError() const { return config_error_; }
 
  private:
-  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
-  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo,
-                                         sensor_msgs::CameraInfo>;
-  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
-      stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;
-
-  struct Frame {
-    stereo_msgs::DisparityImageConstPtr disparity;
-    sensor_msgs::CameraInfoConstPtr left_info;
-    sensor_msgs::CameraInfoConstPtr right_info;
-  };
+  using Frame = StereoFrame;
 
   void setUpInputs();
-  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
-                   const sensor_msgs::CameraInfoConstPtr& left,
-                   const sensor_msgs::CameraInfoConstPtr& right);
-  void tfFailure(const std_msgs::Header& header,
-                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
   void processFrame(const Frame& frame);
-  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
-  void reject(const std::string& reason, const std::string& detail);
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
@@ -97,14 +73,7 @@ class Occupancy2DRos {
   Occupancy2DRosConfig ros_config_;
   OccupancyGrid2DConfig grid_config_;
 
-  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
-  std::unique_ptr<message_filters::Subscriber<stereo_msgs::DisparityImage>> disparity_sub_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> left_info_sub_;
-  std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>> right_info_sub_;
-  std::unique_ptr<DisparityFilter> disparity_filter_;
-  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
-  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  std::unique_ptr<StereoInput> input_;  ///< (stereo_input.h)
 
   ros::Publisher grid_pub_;
   ros::ServiceServer reset_srv_;
@@ -127,6 +96,7 @@ class Occupancy2DRos {
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
   FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
+  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
   std::uint64_t map_resets_ = 0;
   Grid2DUpdateStats last_update_;
 };

@@ -4,7 +4,8 @@
 // same entry point. Wrapped by
 // src/nodelets/safety_map_nodelet.cpp (stereo_safety_map/SafetyMapNodelet). Implemented in
 // src/ros/safety_map_inputs.cpp (the callbacks up to the slot), src/ros/safety_map_ros.cpp (the
-// rest) and ros/safety_map_export.h (~save's files).
+// rest) and ros/safety_map_export.h (~save's files); its inputs are the shared stereo input
+// (ros/stereo_input.h, with its message checks on).
 //
 // Threading model. Message callbacks run on the nodelet manager's thread pool. Each subscriber
 // callback first checks its message on its own (structure, values: conversions.h check*(), no
@@ -12,14 +13,14 @@
 // MessageFilter, the sync or the queue, where it could push a valid message out. The sync
 // (exact_stamp_matcher.h unless approximate_sync: it keeps a frame's parts whatever else arrives,
 // where message_filters' ExactTime let a flood evict them) calls back with the frame; it checks the
-// frame as a whole (camera models, sizes, stamp order) and puts the frame (the message pointers)
-// into a one-slot queue, so callbacks never wait for the pipeline. One worker thread owned by this
-// class takes frames from the slot and runs conversion, the core and publishing. When a frame
-// arrives while another waits in the slot, the waiting (older) frame is replaced and counted as
-// dropped: the newest frame wins, processing latency stays one frame, and max_rate throttles by
-// letting the slot be overwritten. A worker (rather than processing in the callback) keeps the tf2
-// MessageFilter and the sync running on time while a frame is processed, and lets drops be counted
-// in one place.
+// frame as a whole (camera models, sizes), then frameIn() its stamp order, and puts the frame (the
+// message pointers) into a one-slot queue, so callbacks never wait for the pipeline. One worker
+// thread owned by this class takes frames from the slot and runs conversion, the core and
+// publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
+// replaced and counted as dropped: the newest frame wins, processing latency stays one frame, and
+// max_rate throttles by letting the slot be overwritten. A worker (rather than processing in the
+// callback) keeps the tf2 MessageFilter and the sync running on time while a frame is processed,
+// and lets drops be counted in one place.
 //
 // Locks, and what each guards (always taken in this order, never the other way round):
 //   reconfigure_mutex_  dynamic_reconfigure's server (held by it while reconfigureCb runs);
@@ -31,8 +32,8 @@
 //   save_mutex_         writing ~save's files (after core_mutex_ is released).
 //   the slot's mutex    (frame_slot.h) the slot and newest_stamp_ (the stamp order, changed in
 //                       putIf()'s accept), held for a swap.
-//   stats_mutex_        counters and diagnostics; arrival_mutex_: tf wait measurement.
-// The exact matcher has its own mutex, never held while it calls back (into disparityCb).
+//   stats_mutex_        counters and diagnostics (the tf wait is measured in stereo_input.h).
+// The exact matcher has its own mutex, never held while it calls back (into frameIn).
 // Worker-only state (points_, disparity_, camera_, previous_input_...) is touched by the worker
 // thread alone. Constant after the constructor: ros_config_ (but max_rate), config_error_.
 // Publishers are thread-safe in roscpp. The destructor stops the timers, services, reconfigure
@@ -44,29 +45,21 @@
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
-#include "stereo_safety_map/ros/exact_stamp_matcher.h"
 #include "stereo_safety_map/ros/frame_counters.h"
 #include "stereo_safety_map/ros/frame_slot.h"
 #include "stereo_safety_map/ros/nodelet_diagnostics.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/safety_map_params.h"
+#include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
-#include <message_filters/pass_through.h>
-#include <message_filters/sync_policies/approximate_time.h>
-#include <message_filters/synchronizer.h>
 #include <ros/ros.h>
-#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/Empty.h>
-#include <stereo_msgs/DisparityImage.h>
 #include <stereo_safety_map/SafetyMapConfig.h>
 #include <stereo_safety_map/SaveMap.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/message_filter.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -100,43 +93,16 @@ class SafetyMapRos {
   const std::string& configError() const { return config_error_; }
 
  private:
-  using DisparityFilter = tf2_ros::MessageFilter<stereo_msgs::DisparityImage>;
-  using CloudFilter = tf2_ros::MessageFilter<sensor_msgs::PointCloud2>;
-  using FrameMatcher = ExactStampMatcher<stereo_msgs::DisparityImage, sensor_msgs::CameraInfo,
-                                         sensor_msgs::CameraInfo>;
-  using ApproximatePolicy = message_filters::sync_policies::ApproximateTime<
-      stereo_msgs::DisparityImage, sensor_msgs::CameraInfo, sensor_msgs::CameraInfo>;
   using Clock = std::chrono::steady_clock;
 
   /// One input frame waiting for the worker.
-  struct Frame {
-    std_msgs::Header header;
-    stereo_msgs::DisparityImageConstPtr disparity;
-    sensor_msgs::CameraInfoConstPtr left_info;
-    sensor_msgs::CameraInfoConstPtr right_info;
-    sensor_msgs::PointCloud2ConstPtr cloud;
-    double tf_wait_ms = 0.0;  ///< from arrival to the transform being available
-    bool reset_map = false;   ///< time went back (the clock too): a restart, reset first
+  struct Frame : StereoFrame {
+    bool reset_map = false;  ///< time went back (the clock too): a restart, reset first
   };
 
   void setUpInputs();
-  // Subscriber callbacks: check one message, hand it on or drop it.
-  void disparityIn(const stereo_msgs::DisparityImageConstPtr& msg);
-  void leftInfoIn(const sensor_msgs::CameraInfoConstPtr& msg);
-  void rightInfoIn(const sensor_msgs::CameraInfoConstPtr& msg);
-  void cloudIn(const sensor_msgs::PointCloud2ConstPtr& msg);
-  void disparityCb(const stereo_msgs::DisparityImageConstPtr& disparity,
-                   const sensor_msgs::CameraInfoConstPtr& left,
-                   const sensor_msgs::CameraInfoConstPtr& right);
-  void cloudCb(const sensor_msgs::PointCloud2ConstPtr& cloud);
-  /// Counts a received frame (diagnostics).
-  void countArrival();
-  /// A checked frame enters the tf filter: its arrival time, for tfWaitMs().
-  void noteArrival(const ros::Time& stamp);
-  /// How long the frame stamped `stamp` waited since noteArrival() (0 if unknown); forgets it.
-  double tfWaitMs(const ros::Time& stamp);
-  void tfFailure(const std_msgs::Header& header,
-                 tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  /// A checked frame from the stereo input (disparity or cloud): on to enqueue().
+  void frameIn(StereoFrame&& in);
   /// Puts a frame into the slot unless its transform came more than max_tf_wait after it
   /// ("stale tf"), or its stamp is not newer than the newest frame's (then it is dropped, or
   /// marks a restart when the clock went back as well: time_jump_reset). A refused frame never
@@ -144,8 +110,6 @@ class SafetyMapRos {
   void enqueue(std::unique_ptr<Frame> frame);
 
   void processFrame(const Frame& frame);
-  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
-  void reject(const std::string& reason, const std::string& detail);
   void publishOutputs(const std_msgs::Header& header, const Eigen::Vector3f& robot_position);
   /// Map, labels and safety_obstacles (core_mutex_ held). `header.stamp` is the stamp of the last
   /// frame integrated (or skipped as stationary); `from_frame` when a frame vouches for the map
@@ -174,22 +138,8 @@ class SafetyMapRos {
   SafetyMapRosConfig ros_config_;
   SafetyMapperConfig mapper_config_;
 
-  // Inputs.
-  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::shared_ptr<tf2_ros::TransformListener> tf_listener_;
-  ros::Subscriber disparity_sub_;
-  ros::Subscriber left_info_sub_;
-  ros::Subscriber right_info_sub_;
-  ros::Subscriber cloud_sub_;
-  // Checked messages enter the filters through these.
-  message_filters::PassThrough<stereo_msgs::DisparityImage> disparity_in_;
-  message_filters::PassThrough<sensor_msgs::CameraInfo> left_info_in_;
-  message_filters::PassThrough<sensor_msgs::CameraInfo> right_info_in_;
-  message_filters::PassThrough<sensor_msgs::PointCloud2> cloud_in_;
-  std::unique_ptr<DisparityFilter> disparity_filter_;
-  std::unique_ptr<CloudFilter> cloud_filter_;
-  std::unique_ptr<FrameMatcher> exact_matcher_;  ///< approximate_sync false
-  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
+  // Inputs (stereo_input.h: subscribers, checks, tf filter, sync, tf buffer).
+  std::unique_ptr<StereoInput> input_;
 
   // Outputs.
   ros::Publisher map_pub_;
@@ -213,11 +163,6 @@ class SafetyMapRos {
   std::thread worker_;
   std::atomic<double> max_rate_{0.0};
   std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)
-
-  // Arrival times of the frames between their check and the worker (tf filter, matcher), by
-  // stamp, to measure how long each waited for tf (guarded by arrival_mutex_).
-  std::mutex arrival_mutex_;
-  std::map<ros::Time, Clock::time_point> arrivals_;
 
   // Worker-only buffers, reused from frame to frame.
   std::vector<Eigen::Vector3f> points_;
@@ -248,10 +193,10 @@ class SafetyMapRos {
   // Counters and diagnostics (guarded by stats_mutex_).
   std::mutex stats_mutex_;
   FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
+  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
   std::uint64_t frames_stationary_ = 0;
   std::uint64_t map_resets_ = 0;
   std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
-  ros::WallTime last_arrival_;  ///< last disparity / cloud message received
   ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point

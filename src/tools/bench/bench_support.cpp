@@ -149,28 +149,6 @@ void configureSip(stereo_image_proc::StereoProcessor* p, const ssm::DisparityPip
 }
 #endif
 
-cv::Ptr<cv::StereoMatcher> rawMatcher(const ssm::DisparityPipelineConfig& c) {
-  const int uniq = c.enable_uniqueness ? c.uniqueness.uniqueness_ratio : 0;
-  if (c.matcher == ssm::StereoMatcherType::kSemiGlobal) {
-    const int b2 = c.block_size * c.block_size;
-    return cv::StereoSGBM::create(
-        c.min_disparity, c.num_disparities, c.block_size, c.sgbm_p1 > 0 ? c.sgbm_p1 : 8 * b2,
-        c.sgbm_p2 > 0 ? c.sgbm_p2 : 32 * b2, -1, c.pre_filter_cap, uniq, c.speckle_window_size,
-        c.speckle_range,
-        c.sgbm_three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
-  }
-  cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(c.num_disparities, c.block_size);
-  bm->setMinDisparity(c.min_disparity);
-  bm->setPreFilterType(cv::StereoBM::PREFILTER_XSOBEL);
-  bm->setPreFilterCap(c.pre_filter_cap);
-  bm->setTextureThreshold(c.bm_texture_threshold);
-  bm->setUniquenessRatio(uniq);
-  bm->setSpeckleWindowSize(c.speckle_window_size);
-  bm->setSpeckleRange(c.speckle_range);
-  bm->setDisp12MaxDiff(-1);
-  return bm;
-}
-
 double validFraction(const cv::Mat& disparity_float) {
   if (disparity_float.empty()) return 0.0;
   int valid = 0;

@@ -187,9 +187,6 @@ void configureSip(stereo_image_proc::StereoProcessor* p, const ssm::DisparityPip
                   bool own_filters);
 #endif
 
-// OpenCV matcher alone with the settings DisparityPipeline gives it (fixed-point output).
-cv::Ptr<cv::StereoMatcher> rawMatcher(const ssm::DisparityPipelineConfig& c);
-
 double validFraction(const cv::Mat& disparity_float);
 
 // Points whose distance to the camera is within [min_range, max_range]: what VoxelGrid uses, so

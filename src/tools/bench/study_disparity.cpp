@@ -50,7 +50,7 @@ void studyDisparity(Bench* b) {
           });
     };
     auto raw = [&](const ssm::DisparityPipelineConfig& c) {
-      auto m = rawMatcher(c);
+      auto m = ssm::DisparityPipeline::matcherFor(c);
       auto buf = std::make_shared<cv::Mat>();
       return std::function<void(const Frame&, cv::Mat*)>([m, buf](const Frame& f, cv::Mat* out) {
         m->compute(f.left, f.right, *buf);

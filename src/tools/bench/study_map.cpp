@@ -210,7 +210,7 @@ void studyDenseMap(Bench* b) {
     ssm::DisparityPipelineConfig dense_cfg = pcfg.disparity;
     dense_cfg.matcher = ssm::StereoMatcherType::kSemiGlobal;
     dense_cfg.enable_uniqueness = false;
-    const cv::Ptr<cv::StereoMatcher> matcher = rawMatcher(dense_cfg);
+    const cv::Ptr<cv::StereoMatcher> matcher = ssm::DisparityPipeline::matcherFor(dense_cfg);
     cv::Mat raw16, disparity;
     for (std::size_t k = 0; k < frames.size(); ++k) {
       matcher->compute(frames[k].left, frames[k].right, raw16);
