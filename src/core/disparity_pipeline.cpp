@@ -329,6 +329,24 @@ void DisparityPipeline::matchRightToLeftTask(void* self) {
   }
 }
 
+void DisparityPipeline::matchStripeTask(void* self) {
+  static_cast<DisparityPipeline*>(self)->block_matcher_.matchStripe(1);  // does not throw
+}
+
+bool DisparityPipeline::useOneVolumeMatcher() const {
+  if (config_.matcher != StereoMatcherType::kBlockMatching || !config_.enable_left_right ||
+      config_.bm_texture_threshold != 0 || config_.speckle_window_size != 0) {
+    return false;
+  }
+  BlockMatcherParams p;
+  p.min_disparity = config_.min_disparity;
+  p.num_disparities = config_.num_disparities;
+  p.block_size = config_.block_size;
+  p.pre_filter_cap = config_.pre_filter_cap;
+  p.uniqueness_ratio = key_.uniqueness_ratio;
+  return LeftRightBlockMatcher::supports(p);
+}
+
 void DisparityPipeline::markRemoved(const cv::Mat& disparity, DisparityRemoval reason) {
   for (int y = 0; y < disparity.rows; ++y) {
     const float* d = disparity.ptr<float>(y);
@@ -426,7 +444,8 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // thread while this one runs steps 1 and 2. Every path out of this block waits for it: it
     // reads the grey images and writes the right-to-left buffers.
     right_ran_ = false;  // the buffer itself is kept: no allocation per frame
-    const bool parallel = config_.enable_left_right && config_.parallel_left_right;
+    const bool one_volume = useOneVolumeMatcher();
+    const bool parallel = config_.enable_left_right && config_.parallel_left_right && !one_volume;
     struct Join {
       detail::TaskThread* task;
       ~Join() {
@@ -445,7 +464,32 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // --- 1. matching; the uniqueness test (002, Sec. 2.2) runs inside the matcher.
     cv::Mat& disparity = *disparity_out;
     Clock::time_point t = Clock::now();
-    left_matcher_->compute(*left_grey, *right_grey, raw_);
+    if (one_volume) {
+      // Both directions from one SAD volume (disparity_block_matcher.h): StereoBM's left output
+      // and the mirrored matcher's right output, bit for bit. Rows in stripes: OpenCV's threads,
+      // or with parallel_left_right the lower half on the pipeline's helper thread.
+      BlockMatcherParams p;
+      p.min_disparity = config_.min_disparity;
+      p.num_disparities = config_.num_disparities;
+      p.block_size = config_.block_size;
+      p.pre_filter_cap = config_.pre_filter_cap;
+      p.uniqueness_ratio = key_.uniqueness_ratio;
+      if (config_.parallel_left_right) {
+        if (block_matcher_.prepare(*left_grey, *right_grey, p, 2, &raw_, &raw_right_) == 2) {
+          task_.start(&DisparityPipeline::matchStripeTask, this);
+          join.task = &task_;
+          block_matcher_.matchStripe(0);
+          task_.wait();
+          join.task = nullptr;
+        } else {
+          block_matcher_.matchStripe(0);
+        }
+      } else {
+        block_matcher_.compute(*left_grey, *right_grey, p, cv::getNumThreads(), &raw_, &raw_right_);
+      }
+    } else {
+      left_matcher_->compute(*left_grey, *right_grey, raw_);
+    }
     convertMatcherOutput(raw_, &disparity);
     int valid = cv::countNonZero(disparity);
     DisparityStepStats& match = st.step(DisparityStep::kMatching);
@@ -508,7 +552,15 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // --- 3. left-right consistency (002 Sec. 4.1, ref. [7]) against the right-to-left match.
     if (config_.enable_left_right) {
       DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
-      if (parallel) {
+      if (one_volume) {
+        const Clock::time_point t0 = Clock::now();
+        convertMatcherOutput(raw_right_, &right_disparity_);
+        right_ran_ = true;
+        rm.ran = true;
+        rm.valid_before = 0;
+        rm.valid_after = cv::countNonZero(right_disparity_);
+        rm.ms = msSince(t0);
+      } else if (parallel) {
         task_.wait();
         join.task = nullptr;
         if (right_failed_) return fail(right_error_);

@@ -9,13 +9,16 @@
 //  1. matching: StereoBM / StereoSGBM; 002's "quality of match" test runs inside it as OpenCV's
 //     uniquenessRatio, since only the matcher sees the costs (002, Sec. 2.2);
 //  2. texture validation: mean |LoG| of the left image over the window (002, Sec. 2.2);
-//  3. left-right consistency: the mirrored pair is matched by a second matcher with the same
-//     settings to get right-to-left disparities (002, Sec. 4.1, ref. [7]);
+//  3. left-right consistency: right-to-left disparities (002, Sec. 4.1, ref. [7]). With BM on the
+//     default settings they come with the left ones from one SAD cost volume
+//     (disparity_block_matcher.h, bit for bit what the reference path gives); otherwise the
+//     mirrored pair is matched by a second matcher with the same settings;
 //  4. neighbour consistency: drop readings unlike their neighbours (000, Sec. III);
 //  5. spike removal: drop small continuous-disparity surfaces (002, Sec. 4.2); last, so that it
 //     also removes fragments the earlier steps left behind.
 #pragma once
 
+#include "stereo_safety_map/core/disparity_block_matcher.h"
 #include "stereo_safety_map/core/disparity_filters.h"
 
 #include <opencv2/calib3d.hpp>
@@ -68,9 +71,9 @@ struct DisparityPipelineConfig {
 
   /// Run the right-to-left matcher of the left-right check on a second thread (owned by the
   /// pipeline, started at the first frame that needs it) while this one matches left-to-right
-  /// and runs the texture test. Same output bit for bit, same CPU time; the latency drops by up
-  /// to the right matcher's time (about 40 % of the stage at 640x480 BM) when a second core is
-  /// free. Ours, not in the papers.
+  /// and runs the texture test; with the one-volume BM matcher (disparity_block_matcher.h) the
+  /// helper thread matches the lower half of the rows instead. Same output bit for bit, same CPU
+  /// time; the latency drops when a second core is free. Ours, not in the papers.
   bool parallel_left_right = false;
 
   std::string validate() const;
@@ -82,7 +85,8 @@ enum class DisparityStep : int {
   kMatching,        ///< left-to-right matcher (uniqueness test included)
   kUniqueness,      ///< only measured in debug mode (extra matcher pass), else ran = false
   kTexture,         ///< LoG texture test
-  kRightMatching,   ///< right-to-left matcher on the mirrored pair (for the left-right check)
+  kRightMatching,   ///< right-to-left matcher on the mirrored pair (for the left-right check);
+                    ///< 0 ms when the one-volume matcher gave it with kMatching
   kLeftRight,       ///< left-right consistency check
   kNeighbourConsistency,
   kSpikeRemoval,
@@ -203,6 +207,9 @@ class DisparityPipeline {
   void matchRightToLeft(const cv::Mat& left_grey, const cv::Mat& right_grey,
                         DisparityStepStats* stats);
   static void matchRightToLeftTask(void* self);
+  static void matchStripeTask(void* self);
+  /// The one-volume matcher applies (BM, left-right check on, settings it reproduces exactly).
+  bool useOneVolumeMatcher() const;
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
   void renderDebugImage(const cv::Mat& disparity);
 
@@ -224,6 +231,7 @@ class DisparityPipeline {
   cv::Mat plain_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
+  LeftRightBlockMatcher block_matcher_;  ///< left and right disparities from one cost volume
 
   // parallel_left_right: the helper thread and the arguments of its task.
   detail::TaskThread task_;
