@@ -285,9 +285,10 @@ ParamFieldList<M> makeMapperFields() {
           "[Reliability](#reliability)).");
   l.add("obstacle_memory", &M::obstacle_memory)
       .doc(
-          "a cell that held an obstacle stays Non-ground until free space is observed there (its "
-          "occupied voxels emptied by passing rays) (ours; false = 000, which recomputes the map "
-          "from the grid).");
+          "a cell that held an obstacle (its measured top more than h_T above the safe ground "
+          "around it) stays Non-ground until free space is observed there (its occupied voxels "
+          "emptied by passing rays) (ours; false = 000, which recomputes the map from the "
+          "grid).");
   l.add("relevel", &M::relevel, &FrameLevellingConfig::enabled)
       .doc(
           "correct each frame's pitch, roll and height on the robot's level ground in the previous "

@@ -75,6 +75,27 @@ std::string SafetyMapperConfig::validate() const {
   return "";
 }
 
+bool risesAboveLocalGround(const SafetyMap& m, const HeightMap& hm, int c, float fallback_ground_z,
+                           double min_rise, int radius) {
+  // A column whose top voxel stands only because the ground's noise (stereo at range, an
+  // unreported pitch) reached into the next voxel is not an obstacle: its surface is within
+  // h_T of the ground around it.
+  const float top = hm.surfaceHeightAtIndex(c);
+  if (!std::isfinite(top)) return true;
+  const int u = c % m.width, v = c / m.width;
+  float ground = std::numeric_limits<float>::infinity();
+  for (int vn = std::max(0, v - radius); vn <= std::min(m.height - 1, v + radius); ++vn) {
+    for (int un = std::max(0, u - radius); un <= std::min(m.width - 1, u + radius); ++un) {
+      const int cn = vn * m.width + un;
+      if (!isSafe(m.labels[cn])) continue;
+      const float z = hm.surfaceHeightAtIndex(cn);
+      if (std::isfinite(z)) ground = std::min(ground, z);
+    }
+  }
+  if (!std::isfinite(ground)) ground = fallback_ground_z;
+  return top - ground > min_rise;
+}
+
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
   c.segmentation.segment_islands = false;  // 000 Alg. 1 grows from the robot's island only
@@ -325,7 +346,7 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   return true;
 }
 
-void SafetyMapper::applyObstacleMemory(std::int32_t robot_w) {
+void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   auto key = [](int u, int v) {
     return static_cast<std::int64_t>(
         (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
@@ -345,6 +366,9 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w) {
       // ground is Non-ground for its reachability); the ground voxel under it is not part of it.
       const std::int32_t hi = height_map_.atIndex(c);
       if (hi == HeightMap::kNoHeight || hi <= robot_w) continue;
+      // Ground noise that reached the voxel above the ground is no obstacle to remember.
+      if (!risesAboveLocalGround(m, height_map_, c, robot_z, config_.labelling.max_step_height))
+        continue;
       const std::int32_t low = height_map_.lowestAtIndex(c);
       const std::int32_t lo = hi > low ? std::max(low + 1, robot_w + 1) : hi;
       ObstacleMark& mark = obstacle_memory_.emplace(key(u, v), ObstacleMark{lo, hi}).first->second;
@@ -422,7 +446,7 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   }
   cells_remembered_ = 0;
   if (config_.obstacle_memory && finite) {
-    applyObstacleMemory(grid_.indexOf(robot_base_position).w);
+    applyObstacleMemory(grid_.indexOf(robot_base_position).w, robot_base_position.z());
   }
   // What the map can no longer vouch for, at the latest time seen (observation_age.h).
   cells_aged_ = 0;

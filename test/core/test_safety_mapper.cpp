@@ -932,6 +932,46 @@ TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
   }
 }
 
+// What the memory takes (risesAboveLocalGround): a column whose measured top stands more than h_T
+// above the safe ground around it, not the floor's noise that reached into the voxel above it
+// (a top 4 cm above a floor that reads 3 cm high, as an unreported pitch makes it read at
+// range). Without safe ground around it the robot's base is the ground; without points the
+// column is remembered.
+TEST(SafetyMapperObstacleMemory, TheFloorsNoiseIsNotRemembered) {
+  HeightMap hm;
+  hm.reset(0, 0, 7, 7);
+  SafetyMap m;
+  m.width = m.height = 7;
+  m.labels.assign(49, L::kLevel);
+  for (int v = 0; v < 7; ++v)
+    for (int u = 0; u < 7; ++u) {
+      hm.set(u, v, 0);
+      hm.setSurfaceHeight(u, v, 0.03f);
+    }
+  const int c = 3 * 7 + 3;
+  m.labels[c] = L::kNonGround;
+  hm.set(3, 3, 1, -1);
+  const double h_t = 0.05;
+  hm.setSurfaceHeight(3, 3, 0.07f);
+  EXPECT_FALSE(risesAboveLocalGround(m, hm, c, 0.0f, h_t));
+  hm.setSurfaceHeight(3, 3, 0.30f);  // a post
+  EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.0f, h_t));
+  hm.setSurfaceHeight(3, 3, 0.09f);  // a low obstacle, 6 cm above that floor
+  EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.0f, h_t));
+  // The lowest safe surface nearby is the ground: one high floor cell does not hide the post.
+  hm.setSurfaceHeight(2, 3, 0.08f);
+  EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.0f, h_t));
+  // No safe cell within 2 cells: the robot's base decides.
+  for (int k = 0; k < 49; ++k)
+    if (k != c) m.labels[k] = L::kUnknown;
+  hm.setSurfaceHeight(3, 3, 0.07f);
+  EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.0f, h_t));
+  EXPECT_FALSE(risesAboveLocalGround(m, hm, c, 0.03f, h_t));
+  // No measured surface: remembered.
+  hm.setSurfaceHeight(3, 3, std::numeric_limits<float>::quiet_NaN());
+  EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.03f, h_t));
+}
+
 TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {
   const auto m = run(drive(floorWithBox()));
   m->reset();

@@ -68,7 +68,10 @@ struct SafetyMapperConfig {
   /// with its voxels. Aging (max_cell_age) never makes such a cell safe either. Only what rises
   /// above the robot's base counts as an obstacle (the voxels of the column above its lowest
   /// occupied one, or the one voxel of a single-voxel column): a column of lower ground is
-  /// Non-ground for its reachability, which may change.
+  /// Non-ground for its reachability, which may change. And only a column whose measured
+  /// surface stands more than h_T above the safe ground around it: the ground's own noise (stereo
+  /// at range, an unreported pitch) that reaches into the voxel above it makes a column
+  /// non-traversable for this map but is not remembered.
   bool obstacle_memory = true;
 
   /// Re-levelling of each frame on the ground the robot stands on (frame_levelling.h; ours,
@@ -85,6 +88,16 @@ struct SafetyMapperConfig {
 /// vertical margin, the grid's look-ahead, cell aging, and the safe-by-default rules of the
 /// open-world work), everything else kept. The open-world evaluation's "paper-faithful" row.
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config);
+
+/// SafetyMapperConfig::obstacle_memory's test of what is an obstacle to remember: whether the
+/// measured surface of cell `c` of `map` (the mean z of its top voxel's points, HeightMap::
+/// surfaceHeightAtIndex; the map's cells and the height map's are the same window) stands more
+/// than `min_rise` [m] above the ground around it: the lowest measured surface of the Level /
+/// Inclined cells within `radius` cells, or `fallback_ground_z` (the robot's base) where none
+/// is. True when the cell has no measured surface (an obstacle is not forgotten for want of
+/// points).
+bool risesAboveLocalGround(const SafetyMap& map, const HeightMap& height_map, int c,
+                           float fallback_ground_z, double min_rise, int radius = 2);
 
 /// Wall-clock time of each stage of the last processed frame [ms].
 struct StageTimings {
@@ -158,6 +171,9 @@ class SafetyMapper {
   std::size_t ageSafetyMap(double now);
   /// Cells of the last map that the obstacle memory kept Non-ground against the labelling.
   std::size_t cellsRemembered() const { return cells_remembered_; }
+  /// Cells the obstacle memory holds (those it keeps Non-ground and those the labelling calls
+  /// Non-ground itself).
+  std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
   /// Safe cells of the current map turned Unknown by aging since it was computed.
   std::size_t cellsAged() const { return cells_aged_; }
   /// Latest frame stamp / aging time seen; NaN when none since the start or the last reset.
@@ -220,7 +236,7 @@ class SafetyMapper {
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
-  void applyObstacleMemory(std::int32_t robot_w);
+  void applyObstacleMemory(std::int32_t robot_w, float robot_z);
 
   ObservationAge observation_age_;
   double latest_time_;  // NaN when unknown
