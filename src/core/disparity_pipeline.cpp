@@ -338,13 +338,17 @@ bool DisparityPipeline::useOneVolumeMatcher() const {
       config_.bm_texture_threshold != 0 || config_.speckle_window_size != 0) {
     return false;
   }
+  return LeftRightBlockMatcher::supports(blockMatcherParams());
+}
+
+BlockMatcherParams DisparityPipeline::blockMatcherParams() const {
   BlockMatcherParams p;
   p.min_disparity = config_.min_disparity;
   p.num_disparities = config_.num_disparities;
   p.block_size = config_.block_size;
   p.pre_filter_cap = config_.pre_filter_cap;
   p.uniqueness_ratio = key_.uniqueness_ratio;
-  return LeftRightBlockMatcher::supports(p);
+  return p;
 }
 
 void DisparityPipeline::markRemoved(const cv::Mat& disparity, DisparityRemoval reason) {
@@ -468,12 +472,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       // Both directions from one SAD volume (disparity_block_matcher.h): StereoBM's left output
       // and the mirrored matcher's right output, bit for bit. Rows in stripes: OpenCV's threads,
       // or with parallel_left_right the lower half on the pipeline's helper thread.
-      BlockMatcherParams p;
-      p.min_disparity = config_.min_disparity;
-      p.num_disparities = config_.num_disparities;
-      p.block_size = config_.block_size;
-      p.pre_filter_cap = config_.pre_filter_cap;
-      p.uniqueness_ratio = key_.uniqueness_ratio;
+      const BlockMatcherParams p = blockMatcherParams();
       if (config_.parallel_left_right) {
         if (block_matcher_.prepare(*left_grey, *right_grey, p, 2, &raw_, &raw_right_) == 2) {
           task_.start(&DisparityPipeline::matchStripeTask, this);

@@ -2,6 +2,7 @@
 // the pair and its right output StereoBM::compute() on the mirrored pair padded as the pipeline's
 // reference path pads it, every pixel of the CV_16S output, over image sizes (odd widths and
 // heights), disparity ranges, block sizes, pre-filter caps, uniqueness ratios and stripe counts.
+#include "layered_stereo_pair.h"
 #include "stereo_safety_map/core/disparity_block_matcher.h"
 
 #include <gtest/gtest.h>
@@ -55,37 +56,13 @@ void makePair(int rows, int cols, int seed, cv::Mat* left, cv::Mat* right) {
   cv::Mat stripes(rows, tex_cols, CV_8UC1);
   for (int x = 0; x < tex_cols; ++x)
     stripes.col(x).setTo(x % 8 < 4 ? 60 : 190);
-  struct Layer {
-    cv::Rect rect;
-    int disparity;
-    cv::Mat texture;
-  };
-  std::vector<Layer> layers{{cv::Rect(0, 0, tex_cols, rows), 3 + seed % 7, dots(1.0)}};
+  std::vector<test::StereoLayer> layers{{cv::Rect(0, 0, tex_cols, rows), 3 + seed % 7, dots(1.0)}};
   layers.push_back({cv::Rect(cols / 4, rows / 5, cols / 4, rows / 2), 20 + seed % 13, dots(0.7)});
   layers.push_back({cv::Rect(cols / 2, rows / 2, 9, rows / 3), 40, dots(1.5)});
   layers.push_back({cv::Rect(cols / 8, 2 * rows / 3, cols / 5, rows / 4), 11,
                     cv::Mat(rows, tex_cols, CV_8UC1, 128)});
   layers.push_back({cv::Rect(2 * cols / 3, rows / 8, cols / 5, rows / 5), 15, stripes});
-  left->create(rows, cols, CV_8UC1);
-  right->create(rows, cols, CV_8UC1);
-  for (int y = 0; y < rows; ++y) {
-    for (int x = 0; x < cols; ++x) {
-      const Layer* l_in = nullptr;
-      const Layer* r_in = nullptr;
-      for (const Layer& l : layers) {
-        if (y < l.rect.y || y >= l.rect.y + l.rect.height) continue;
-        if (x >= l.rect.x && x < l.rect.x + l.rect.width &&
-            (l_in == nullptr || l.disparity > l_in->disparity))
-          l_in = &l;
-        const int xs = x + l.disparity;
-        if (xs >= l.rect.x && xs < l.rect.x + l.rect.width &&
-            (r_in == nullptr || l.disparity > r_in->disparity))
-          r_in = &l;
-      }
-      left->at<uchar>(y, x) = l_in ? l_in->texture.at<uchar>(y, x) : 0;
-      right->at<uchar>(y, x) = r_in ? r_in->texture.at<uchar>(y, x + r_in->disparity) : 0;
-    }
-  }
+  test::renderLayers(layers, rows, cols, left, right);
   // Sensor noise, different in the two images.
   cv::Mat noise(rows, cols, CV_16SC1);
   rng.fill(noise, cv::RNG::NORMAL, 0, 2);

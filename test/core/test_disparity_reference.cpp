@@ -6,6 +6,7 @@
 // one filter after the other. Frames: the five benchmark datasets rendered at 320x240 (and one at
 // 640x480), plus random-dot layers with occlusions; configurations: BM and SGBM, each filter on
 // and off, non-default parameters.
+#include "layered_stereo_pair.h"
 #include "stereo_safety_map/core/disparity_pipeline.h"
 #include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/dataset/scene_loader.h"
@@ -216,38 +217,14 @@ Pair randomDotFrame(int index) {
     cv::GaussianBlur(t, t, cv::Size(), 1.0);
     return t;
   };
-  struct Layer {
-    cv::Rect rect;
-    int disparity;
-    cv::Mat texture;
-  };
-  std::vector<Layer> layers{{cv::Rect(0, 0, tex_cols, rows), 6 + index, dots()}};
+  std::vector<test::StereoLayer> layers{{cv::Rect(0, 0, tex_cols, rows), 6 + index, dots()}};
   layers.push_back({cv::Rect(100 + 7 * index, 40, 60 + 5 * index, 120), 28 + 3 * index, dots()});
   layers.push_back({cv::Rect(220, 150 - 9 * index, 12, 60), 45, dots()});  // thin pole
   // A flat (textureless) patch for the texture test.
   layers.push_back({cv::Rect(30, 170, 80, 50), 12, cv::Mat(rows, tex_cols, CV_8UC1, 128)});
   Pair p;
   p.name = "random dots " + std::to_string(index);
-  p.left.create(rows, cols, CV_8UC1);
-  p.right.create(rows, cols, CV_8UC1);
-  for (int y = 0; y < rows; ++y) {
-    for (int x = 0; x < cols; ++x) {
-      const Layer* l_in = nullptr;
-      const Layer* r_in = nullptr;
-      for (const Layer& l : layers) {
-        if (y < l.rect.y || y >= l.rect.y + l.rect.height) continue;
-        if (x >= l.rect.x && x < l.rect.x + l.rect.width &&
-            (l_in == nullptr || l.disparity > l_in->disparity))
-          l_in = &l;
-        const int xs = x + l.disparity;
-        if (xs >= l.rect.x && xs < l.rect.x + l.rect.width &&
-            (r_in == nullptr || l.disparity > r_in->disparity))
-          r_in = &l;
-      }
-      p.left.at<uchar>(y, x) = l_in ? l_in->texture.at<uchar>(y, x) : 0;
-      p.right.at<uchar>(y, x) = r_in ? r_in->texture.at<uchar>(y, x + r_in->disparity) : 0;
-    }
-  }
+  test::renderLayers(layers, rows, cols, &p.left, &p.right);
   return p;
 }
 

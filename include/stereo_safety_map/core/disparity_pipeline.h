@@ -210,6 +210,7 @@ class DisparityPipeline {
   static void matchStripeTask(void* self);
   /// The one-volume matcher applies (BM, left-right check on, settings it reproduces exactly).
   bool useOneVolumeMatcher() const;
+  BlockMatcherParams blockMatcherParams() const;  // the one-volume matcher's, from the config
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
   void renderDebugImage(const cv::Mat& disparity);
 
