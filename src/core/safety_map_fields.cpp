@@ -289,6 +289,21 @@ ParamFieldList<M> makeMapperFields() {
           "around it) stays Non-ground until free space is observed there (its occupied voxels "
           "emptied by passing rays) (ours; false = 000, which recomputes the map from the "
           "grid).");
+  l.add("obstacle_memory_clear_lop", &M::obstacle_memory_clear_lop)
+      .closed(-32768, 32766)
+      .rangeText("[lop_min, occ_threshold - 1]")
+      .doc(
+          "a remembered obstacle cell is forgotten once every voxel of its band has a log-odds at "
+          "or below this: the passing rays' free-space decrements outweigh the hits (ours; "
+          "occ_threshold - 1 = as soon as no voxel is occupied, which rays grazing a sparse face "
+          "bring about).");
+  l.add("obstacle_memory_max_range", &M::obstacle_memory_max_range)
+      .closed(0, 1000)
+      .unit("m")
+      .doc(
+          "the memory takes a column only while it lies within this distance of the robot: "
+          "stereo's depth error grows with the range squared (001 Sec. 4.1), and the floor's "
+          "outliers at range are no obstacle to keep (ours; 0 = any range).");
   l.add("relevel", &M::relevel, &FrameLevellingConfig::enabled)
       .doc(
           "correct each frame's pitch, roll and height on the robot's level ground in the previous "

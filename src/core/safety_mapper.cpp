@@ -69,6 +69,14 @@ std::string SafetyMapperConfig::validate() const {
     return "grid_look_ahead must be in [0, min(size_x, size_y) / 2 - planning_radius] = [0, " +
            std::to_string(max_look_ahead) + "] m";
   }
+  if (!std::isfinite(obstacle_memory_max_range) || obstacle_memory_max_range < 0.0 ||
+      obstacle_memory_max_range > 1000.0) {
+    return "obstacle_memory_max_range must be in [0, 1000] m (0 = any range)";
+  }
+  if (obstacle_memory_clear_lop < grid.lop_min || obstacle_memory_clear_lop >= grid.occ_threshold) {
+    return "obstacle_memory_clear_lop must be in [grid.lop_min, grid.occ_threshold - 1] = [" +
+           std::to_string(grid.lop_min) + ", " + std::to_string(grid.occ_threshold - 1) + "]";
+  }
   if (!std::isfinite(max_cell_age) || max_cell_age < 0.0 || max_cell_age > 86400.0) {
     return "max_cell_age must be in [0, 86400] s (0 = off)";
   }
@@ -353,6 +361,7 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
         static_cast<std::uint32_t>(v));
   };
   SafetyMap& m = map_;
+  const double max_range2 = config_.obstacle_memory_max_range * config_.obstacle_memory_max_range;
   // Cells that hold an obstacle now: non-traversable columns and small obstacles' tops.
   for (int v = m.min_v; v < m.min_v + m.height; ++v) {
     for (int u = m.min_u; u < m.min_u + m.width; ++u) {
@@ -366,6 +375,11 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       // ground is Non-ground for its reachability); the ground voxel under it is not part of it.
       const std::int32_t hi = height_map_.atIndex(c);
       if (hi == HeightMap::kNoHeight || hi <= robot_w) continue;
+      // Only what was judged from near enough (SafetyMapperConfig::obstacle_memory_max_range).
+      if (max_range2 > 0.0) {
+        const double du = u - m.robot_u, dv = v - m.robot_v;
+        if ((du * du + dv * dv) * m.resolution * m.resolution > max_range2) continue;
+      }
       // Ground noise that reached the voxel above the ground is no obstacle to remember.
       if (!risesAboveLocalGround(m, height_map_, c, robot_z, config_.labelling.max_step_height))
         continue;
@@ -376,8 +390,9 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       mark.hi = std::max(mark.hi, hi);
     }
   }
-  // Remembered cells: forgotten once free space was observed there (no voxel of the band is
-  // occupied any more) or out of the window; otherwise Non-ground whatever the labelling says.
+  // Remembered cells: forgotten once free space was observed there (every voxel of the band at
+  // or below obstacle_memory_clear_lop) or out of the window; otherwise Non-ground whatever the
+  // labelling says.
   memory_drop_.clear();
   for (const auto& [k, mark] : obstacle_memory_) {
     const int u = static_cast<int>(k >> 32);
@@ -386,10 +401,10 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       memory_drop_.push_back(k);
       continue;
     }
-    bool occupied = false;
-    for (std::int32_t w = mark.lo; w <= mark.hi && !occupied; ++w)
-      occupied = grid_.isOccupied(VoxelIndex{u, v, w});
-    if (!occupied) {
+    bool held = false;
+    for (std::int32_t w = mark.lo; w <= mark.hi && !held; ++w)
+      held = grid_.logOdds(VoxelIndex{u, v, w}) > config_.obstacle_memory_clear_lop;
+    if (!held) {
       memory_drop_.push_back(k);
       continue;
     }

@@ -919,14 +919,40 @@ TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
     EXPECT_EQ(relabel(0.05), memory ? L::kNonGround : L::kLevel) << memory << ascii(m->safetyMap());
     EXPECT_EQ(m->cellsRemembered() > 0, memory);
     EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 0.0), L::kLevel);
-    // Free space observed through the box's columns: their upper voxels no longer occupied.
     VoxelGrid& g = m->grid();
     const VoxelIndex lo = g.indexOf(Eigen::Vector3f(1.9f, -0.4f, 0.1f));
     const VoxelIndex hi = g.indexOf(Eigen::Vector3f(2.5f, 0.4f, 0.7f));
-    for (int w = lo.w; w <= hi.w; ++w)
-      for (int v = lo.v; v <= hi.v; ++v)
-        for (int u = lo.u; u <= hi.u; ++u)
-          g.setLogOdds(VoxelIndex{u, v, w}, -10);
+    auto setBand = [&](int lop) {
+      for (int w = lo.w; w <= hi.w; ++w)
+        for (int v = lo.v; v <= hi.v; ++v)
+          for (int u = lo.u; u <= hi.u; ++u)
+            g.setLogOdds(VoxelIndex{u, v, w}, lop);
+    };
+    if (memory) {
+      // Rays grazing the box took its voxels below occ_t but not to free space: still
+      // remembered with obstacle_memory_clear_lop 0; forgotten with occ_t - 1 (the rule before).
+      setBand(g.config().occ_threshold / 2);
+      EXPECT_EQ(relabel(0.05), L::kNonGround) << ascii(m->safetyMap());
+      SafetyMapperConfig eager = c;
+      eager.obstacle_memory_clear_lop = eager.grid.occ_threshold - 1;
+      const auto e = run(frames, eager);
+      SafetyMapperConfig r = eager;
+      r.height_map.robot_height = 0.05;
+      EXPECT_EQ(e->reconfigure(r), "");
+      e->computeSafetyMap(robot);
+      EXPECT_EQ(labelAt(e->safetyMap(), 2.0, 0.0), L::kNonGround) << ascii(e->safetyMap());
+      VoxelGrid& ge = e->grid();
+      for (int w = lo.w; w <= hi.w; ++w)
+        for (int v = lo.v; v <= hi.v; ++v)
+          for (int u = lo.u; u <= hi.u; ++u)
+            ge.setLogOdds(VoxelIndex{u, v, w}, ge.config().occ_threshold / 2);
+      e->computeSafetyMap(robot);
+      EXPECT_EQ(labelAt(e->safetyMap(), 2.0, 0.0), L::kLevel) << ascii(e->safetyMap());
+      eager.obstacle_memory_clear_lop = eager.grid.occ_threshold;
+      EXPECT_NE(eager.validate(), "");
+    }
+    // Free space observed through the box's columns: their upper voxels emptied.
+    setBand(-10);
     EXPECT_EQ(relabel(0.05), L::kLevel) << memory << ascii(m->safetyMap());
     EXPECT_EQ(m->cellsRemembered(), 0u);
   }
@@ -970,6 +996,32 @@ TEST(SafetyMapperObstacleMemory, TheFloorsNoiseIsNotRemembered) {
   // No measured surface: remembered.
   hm.setSurfaceHeight(3, 3, std::numeric_limits<float>::quiet_NaN());
   EXPECT_TRUE(risesAboveLocalGround(m, hm, c, 0.03f, h_t));
+}
+
+// SafetyMapperConfig::obstacle_memory_max_range: the box is remembered only when it stood
+// within that range of the robot while it was Non-ground.
+TEST(SafetyMapperObstacleMemory, OnlyWhatWasNearEnoughIsRemembered) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  const Eigen::Vector3f robot = frames.back().robot;
+  const double to_box = 2.0 - robot.x();  // to the box's near face
+  ASSERT_GT(to_box, 0.5);
+  for (const double range : {0.0, to_box + 0.5, to_box - 0.3}) {
+    SafetyMapperConfig c;
+    c.max_cell_age = 0.0;
+    c.obstacle_memory_max_range = range;
+    const auto m = run(frames, c);
+    ASSERT_EQ(labelAt(m->safetyMap(), 2.0, 0.0), L::kNonGround) << range << ascii(m->safetyMap());
+    SafetyMapperConfig r = c;
+    r.height_map.robot_height = 0.05;  // the labelling would now call the box's near face floor
+    EXPECT_EQ(m->reconfigure(r), "");
+    m->computeSafetyMap(robot);
+    const bool near = range == 0.0 || range > to_box;
+    EXPECT_EQ(labelAt(m->safetyMap(), 2.0, 0.0), near ? L::kNonGround : L::kLevel)
+        << range << ascii(m->safetyMap());
+  }
+  SafetyMapperConfig bad;
+  bad.obstacle_memory_max_range = -1.0;
+  EXPECT_NE(bad.validate(), "");
 }
 
 TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {

@@ -74,6 +74,22 @@ struct SafetyMapperConfig {
   /// non-traversable for this map but is not remembered.
   bool obstacle_memory = true;
 
+  /// What "free space observed" means to obstacle_memory (ours): a remembered cell is forgotten
+  /// once every voxel of its band has a log-odds at or below this, i.e. the passing rays'
+  /// decrements (000 Sec. IV) have outweighed the hits. 0 (default): more free-space evidence
+  /// than the LOP the hits built up above the prior. grid.occ_threshold - 1: forgotten as soon as
+  /// no voxel of the band is occupied any more, which grazing rays through a sparse face (a
+  /// wall seen at a shallow angle, a table top's edge) bring about without the obstacle having
+  /// moved. Range [grid.lop_min, grid.occ_threshold - 1].
+  int obstacle_memory_clear_lop = 0;
+
+  /// obstacle_memory takes a column only while it lies within this horizontal distance of the
+  /// robot [m] (ours; 0 = at any range). Stereo's depth error grows with the square of the range
+  /// (001 Sec. 4.1): beyond a few metres the floor's outliers make columns that stand above h_T
+  /// for a frame, and remembering them would keep that noise. A far obstacle is Non-ground
+  /// while it is measured so, and remembered once the robot has come this near.
+  double obstacle_memory_max_range = 0.0;
+
   /// Re-levelling of each frame on the ground the robot stands on (frame_levelling.h; ours,
   /// enabled false = 000, which takes the pose from odometry as it is): the previous map's robot
   /// segment and its plane are the reference.
