@@ -57,24 +57,15 @@ std_msgs::ColorRGBA stateColour(GateState s, float alpha) {
 
 }  // namespace
 
-SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "safety gate", "safety gate",
+SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh) : NodeletShell(nh, pnh) {
+  startDiagnostics(
+      "safety gate", "safety gate",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kRos);
   rate_window_start_ = ros::WallTime::now();
 
   const std::string err = fromRosParam(pnh_, &ros_config_, &gate_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, safetyGateParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, safetyGateParameterNames())) return;
   gate_ = std::make_unique<SafetyGate>(gate_config_);  // validated: no throw
   SafetyGate::stop(GateReason::kNoMap, "stopped: no safety map received yet", 0.0, 0.0, &decision_);
 
