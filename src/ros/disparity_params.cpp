@@ -2,6 +2,7 @@
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <sstream>
 
@@ -28,11 +29,9 @@ const ParamFieldList<DisparityRosConfig>& disparityRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("queue_size", &R::queue_size).closed(1, 1000).doc("subscriber and sync queue.");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate instead of exact image / CameraInfo sync (cameras without hardware "
-            "sync).");
+    addSyncFields(l, "subscriber and sync queue.",
+                  "approximate instead of exact image / CameraInfo sync (cameras without "
+                  "hardware sync).");
     l.add("cloud_max_depth", &R::cloud_max_depth)
         .openClosed(0, 1000)
         .unit("m")

@@ -3,6 +3,7 @@
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <cmath>
 #include <sstream>
@@ -42,26 +43,14 @@ const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("input", &R::input)
-        .oneOf({"disparity", "cloud"})
-        .doc(
-            "input type: stereo_msgs/DisparityImage + left CameraInfo, or an organised "
-            "sensor_msgs/PointCloud2 (one point per pixel).");
-    l.add("fixed_frame", &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc("its z axis is \"up\" (003 Def. 1 heights); frame of the outputs.");
+    addInputField(l,
+                  "input type: stereo_msgs/DisparityImage + left CameraInfo, or an organised "
+                  "sensor_msgs/PointCloud2 (one point per pixel).");
+    addFixedFrameField(l, "its z axis is \"up\" (003 Def. 1 heights); frame of the outputs.");
     l.add("method", &R::method)
         .oneOf({"3d", "columnwise"})
         .doc("OD / OS Algorithm 2 (003 Sec. 2-3), or the column-wise baseline (003 Sec. 1, 6).");
-    l.add("queue_size", &R::queue_size)
-        .closed(1, 1000)
-        .doc(
-            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
-            "CameraInfo).");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
-            "CameraInfo sync (our matcher, see the safety map's Bad input).");
+    addSyncFields(l);
     l.add("min_depth", &R::min_depth)
         .atLeast(0)
         .unit("m")

@@ -3,6 +3,7 @@
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <cmath>
 #include <sstream>
@@ -49,35 +50,16 @@ const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("fixed_frame", &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc("frame the grid is built and published in (not in 002).");
-    l.add("base_frame", &R::base_frame)
-        .rangeText("non-empty")
-        .doc(
-            "robot frame, origin on the floor: the band's floor and the window's centre (not in "
-            "002).");
-    l.add("queue_size", &R::queue_size)
-        .closed(1, 1000)
-        .doc(
-            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
-            "CameraInfo).");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
-            "CameraInfo sync (our matcher, see Bad input).");
-    l.add("max_rate", &R::max_rate)
-        .closed(0, 1000)
-        .unit("Hz")
-        .doc("most frames processed per second, 0 = every frame (002 Sec. 1 ran at 5 Hz).");
-    l.add("tf_timeout", &R::tf_timeout)
-        .closed(0, 10)
-        .unit("s")
-        .doc("wait for the base frame's transform.");
-    l.add("time_jump_reset", &R::time_jump_reset)
-        .closed(0, 3600)
-        .unit("s")
-        .doc("stamps going back by more than this clear the grid; less: the frame is dropped.");
+    addFixedFrameField(l, "frame the grid is built and published in (not in 002).");
+    addBaseFrameField(l,
+                      "robot frame, origin on the floor: the band's floor and the window's centre "
+                      "(not in 002).");
+    addSyncFields(l);
+    addMaxRateField(l).doc(
+        "most frames processed per second, 0 = every frame (002 Sec. 1 ran at 5 Hz).");
+    addTfTimeoutField(l);
+    addTimeJumpResetField(
+        l, "stamps going back by more than this clear the grid; less: the frame is dropped.");
     l.add("scroll_with_robot", &R::scroll_with_robot)
         .doc("keep the window centred on the robot (not in 002: a building-sized map).");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
