@@ -13,10 +13,10 @@ std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* c)
 }
 
 std::string DisparityRosConfig::validate() const {
+  const std::string queue_error = queueSizeError(queue_size);
+  if (!queue_error.empty()) return queue_error;
   std::ostringstream os;
-  if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << " must be in [1, 1000]";
-  } else if (!(cloud_max_depth > 0.0 && cloud_max_depth <= 1000.0)) {
+  if (!(cloud_max_depth > 0.0 && cloud_max_depth <= 1000.0)) {
     os << "cloud_max_depth = " << cloud_max_depth << " must be in (0, 1000]";
   } else if (!(min_image_contrast >= 0.0 && min_image_contrast <= 128.0)) {
     os << "min_image_contrast = " << min_image_contrast << " must be in [0, 128]";

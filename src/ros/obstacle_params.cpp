@@ -94,15 +94,15 @@ const ParamFieldList<ObstacleCueRosConfig>& obstacleCueFields() {
 }
 
 std::string ObstacleDetectionRosConfig::validate() const {
+  const std::string input_error =
+      firstError({inputError(input), frameError("fixed_frame", fixed_frame,
+                                                "a tf frame whose z axis points up (e.g. odom)")});
+  if (!input_error.empty()) return input_error;
   std::ostringstream os;
-  if (input != "disparity" && input != "cloud") {
-    os << "input = '" << input << "', must be 'disparity' or 'cloud'";
-  } else if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame whose z axis points up (e.g. odom)";
-  } else if (method != "3d" && method != "columnwise") {
+  if (method != "3d" && method != "columnwise") {
     os << "method = '" << method << "', must be '3d' or 'columnwise'";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
+  } else if (!queueSizeError(queue_size).empty()) {
+    os << queueSizeError(queue_size);
   } else if (!std::isfinite(min_depth) || min_depth < 0.0) {
     os << "min_depth = " << min_depth << ", must be >= 0 m";
   } else if (!std::isfinite(max_depth) || max_depth <= min_depth || max_depth > 1000.0) {

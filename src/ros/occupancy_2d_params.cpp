@@ -28,21 +28,10 @@ std::string applyYaml(const YAML::Node& root, const std::string& where, Occupanc
 }  // namespace
 
 std::string Occupancy2DRosConfig::validate() const {
-  std::ostringstream os;
-  if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
-  } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
-  } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {
-    os << "max_rate = " << max_rate << ", must be in [0, 1000] Hz (0 = every frame)";
-  } else if (!std::isfinite(tf_timeout) || tf_timeout < 0.0 || tf_timeout > 10.0) {
-    os << "tf_timeout = " << tf_timeout << ", must be in [0, 10] s";
-  } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
-    os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
-  }
-  return os.str();
+  return firstError({frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
+                     frameError("base_frame", base_frame, "a tf frame (e.g. base_footprint)"),
+                     queueSizeError(queue_size), maxRateError(max_rate), tfTimeoutError(tf_timeout),
+                     timeJumpResetError(time_jump_reset)});
 }
 
 const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {

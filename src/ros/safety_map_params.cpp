@@ -18,25 +18,18 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* c) {
 }
 
 std::string SafetyMapRosConfig::validate() const {
+  const std::string input_error = firstError(
+      {inputError(input), frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
+       frameError("base_frame", base_frame, "a tf frame (e.g. base_footprint)"),
+       queueSizeError(queue_size), maxRateError(max_rate), tfTimeoutError(tf_timeout)});
+  if (!input_error.empty()) return input_error;
   std::ostringstream os;
-  if (input != "disparity" && input != "cloud") {
-    os << "input = '" << input << "', must be 'disparity' or 'cloud'";
-  } else if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
-  } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
-  } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {
-    os << "max_rate = " << max_rate << ", must be in [0, 1000] Hz (0 = every frame)";
-  } else if (!std::isfinite(tf_timeout) || tf_timeout < 0.0 || tf_timeout > 10.0) {
-    os << "tf_timeout = " << tf_timeout << ", must be in [0, 10] s";
-  } else if (disparity_step < 1 || disparity_step > 16) {
+  if (disparity_step < 1 || disparity_step > 16) {
     os << "disparity_step = " << disparity_step << ", must be in [1, 16]";
   } else if (!row_gap_fill.validate().empty()) {
     os << row_gap_fill.validate();
-  } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
-    os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
+  } else if (!timeJumpResetError(time_jump_reset).empty()) {
+    os << timeJumpResetError(time_jump_reset);
   } else if (save_directory.empty() || save_directory.front() != '/') {
     os << "save_directory = '" << save_directory
        << "', must be an absolute path such as /tmp/stereo_safety_map";

@@ -2,11 +2,13 @@
 // fixed_frame, queue_size and approximate_sync) as fields of the nodelet's list
 // (core/param_fields.h): one name, range and doc for every nodelet that reads them, added in the
 // nodelet's README order. What differs from nodelet to nodelet (what `input` takes, what the
-// frames are for) is the nodelet's `doc`.
+// frames are for) is the nodelet's `doc`. The nodelets' validate() checks the same ranges with
+// the ...Error() functions below (the fields' ranges describe validate(): test_param_fields).
 #pragma once
 
 #include "stereo_safety_map/core/param_fields.h"
 
+#include <initializer_list>
 #include <string>
 #include <utility>
 
@@ -66,5 +68,23 @@ template <class R>
 void addTimeJumpResetField(ParamFieldList<R>& l, std::string doc) {
   l.add("time_jump_reset", &R::time_jump_reset).closed(0, 3600).unit("s").doc(std::move(doc));
 }
+
+// The range checks of these fields as a validate() reports them: "" when in range, else the
+// parameter, its value and its range.
+
+/// `input`: "disparity" or "cloud".
+std::string inputError(const std::string& input);
+/// `name` (a frame parameter) non-empty; `must_name` says what, e.g. "a tf frame (e.g. odom)".
+std::string frameError(const char* name, const std::string& frame, const char* must_name);
+/// [1, 1000].
+std::string queueSizeError(int queue_size);
+/// [0, 1000] Hz.
+std::string maxRateError(double max_rate);
+/// [0, 10] s.
+std::string tfTimeoutError(double tf_timeout);
+/// [0, 3600] s.
+std::string timeJumpResetError(double time_jump_reset);
+/// The first non-empty one of `errors` (in the order validate() checks them), "" if none.
+std::string firstError(std::initializer_list<std::string> errors);
 
 }  // namespace stereo_safety_map
