@@ -453,9 +453,7 @@ void toSafetyMapMsg(const SafetyMap& map, const Eigen::Vector3f& robot_position,
   out->robot_segment = map.robot_segment;
 }
 
-namespace {
-
-std_msgs::ColorRGBA rgba(float r, float g, float b, float a) {
+std_msgs::ColorRGBA colorMsg(float r, float g, float b, float a) {
   std_msgs::ColorRGBA c;
   c.r = r;
   c.g = g;
@@ -464,15 +462,13 @@ std_msgs::ColorRGBA rgba(float r, float g, float b, float a) {
   return c;
 }
 
-geometry_msgs::Point point(double x, double y, double z) {
+geometry_msgs::Point pointMsg(double x, double y, double z) {
   geometry_msgs::Point p;
   p.x = x;
   p.y = y;
   p.z = z;
   return p;
 }
-
-}  // namespace
 
 void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
                    visualization_msgs::MarkerArray* out) {
@@ -488,10 +484,10 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
   if (map.width <= 0 || map.height <= 0) return;
 
   // Fig. 4(b) colours: Level green, Inclined yellow, unreachable / too steep ground red.
-  const std_msgs::ColorRGBA kLevel = rgba(0.1f, 0.8f, 0.1f, 0.8f);
-  const std_msgs::ColorRGBA kInclined = rgba(0.95f, 0.85f, 0.1f, 0.8f);
-  const std_msgs::ColorRGBA kUnreachable = rgba(0.85f, 0.1f, 0.1f, 0.8f);
-  const std_msgs::ColorRGBA kVoxel = rgba(0.55f, 0.55f, 0.55f, 0.9f);
+  const std_msgs::ColorRGBA kLevel = colorMsg(0.1f, 0.8f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kInclined = colorMsg(0.95f, 0.85f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kUnreachable = colorMsg(0.85f, 0.1f, 0.1f, 0.8f);
+  const std_msgs::ColorRGBA kVoxel = colorMsg(0.55f, 0.55f, 0.55f, 0.9f);
 
   for (const SegmentInfo& s : map.segments) {
     const std_msgs::ColorRGBA* color = nullptr;
@@ -532,10 +528,10 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
       const int v = map.min_v + cell / map.width;
       const double x0 = (u - 0.5) * l, x1 = (u + 0.5) * l;
       const double y0 = (v - 0.5) * l, y1 = (v + 0.5) * l;
-      const geometry_msgs::Point p00 = point(x0, y0, z_at(x0, y0));
-      const geometry_msgs::Point p10 = point(x1, y0, z_at(x1, y0));
-      const geometry_msgs::Point p11 = point(x1, y1, z_at(x1, y1));
-      const geometry_msgs::Point p01 = point(x0, y1, z_at(x0, y1));
+      const geometry_msgs::Point p00 = pointMsg(x0, y0, z_at(x0, y0));
+      const geometry_msgs::Point p10 = pointMsg(x1, y0, z_at(x1, y0));
+      const geometry_msgs::Point p11 = pointMsg(x1, y1, z_at(x1, y1));
+      const geometry_msgs::Point p01 = pointMsg(x0, y1, z_at(x0, y1));
       m.points.insert(m.points.end(), {p00, p10, p11, p00, p11, p01});
     }
     out->markers.push_back(m);
@@ -548,10 +544,10 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
       t.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
       t.action = visualization_msgs::Marker::ADD;
       t.pose.position =
-          point(s.plane.centroid.x(), s.plane.centroid.y(), s.plane.centroid.z() + 0.15);
+          pointMsg(s.plane.centroid.x(), s.plane.centroid.y(), s.plane.centroid.z() + 0.15);
       t.pose.orientation.w = 1.0;
       t.scale.z = 0.15;
-      t.color = rgba(1.0f, 1.0f, 1.0f, 1.0f);
+      t.color = colorMsg(1.0f, 1.0f, 1.0f, 1.0f);
       char text[64];
       std::snprintf(text, sizeof(text), "%s %.1f deg", name, s.plane.slope_deg);
       t.text = text;
@@ -580,7 +576,7 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
         const VoxelIndex i{u, v, w};
         if (grid.isOccupied(i)) {
           const Eigen::Vector3f c = grid.centerOf(i);
-          cubes.points.push_back(point(c.x(), c.y(), c.z()));
+          cubes.points.push_back(pointMsg(c.x(), c.y(), c.z()));
         }
       }
     }
@@ -606,7 +602,7 @@ bool dropOffEdgeMarker(const SafetyMap& map, const std_msgs::Header& header,
   out->pose.orientation.w = 1.0;
   out->scale.x = out->scale.y = l * 0.9;
   out->scale.z = 0.04;
-  out->color = rgba(1.0f, 0.0f, 1.0f, 0.95f);  // magenta: no other label's colour
+  out->color = colorMsg(1.0f, 0.0f, 1.0f, 0.95f);  // magenta: no other label's colour
   for (int v = map.min_v; v < map.min_v + map.height; ++v) {
     for (int u = map.min_u; u < map.min_u + map.width; ++u) {
       const std::size_t k = static_cast<std::size_t>(map.index(u, v));
@@ -621,7 +617,7 @@ bool dropOffEdgeMarker(const SafetyMap& map, const std_msgs::Header& header,
       } else if (k < map.column_height.size() && map.column_height[k] != SafetyMap::kNoHeight) {
         z = map.column_height[k] * l;
       }
-      out->points.push_back(point(x, y, z + 0.02));
+      out->points.push_back(pointMsg(x, y, z + 0.02));
     }
   }
   return !out->points.empty();

@@ -2,6 +2,7 @@
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <sstream>
 
@@ -12,10 +13,10 @@ std::string fromRosParam(const ros::NodeHandle& pnh, DisparityPipelineConfig* c)
 }
 
 std::string DisparityRosConfig::validate() const {
+  const std::string queue_error = queueSizeError(queue_size);
+  if (!queue_error.empty()) return queue_error;
   std::ostringstream os;
-  if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << " must be in [1, 1000]";
-  } else if (!(cloud_max_depth > 0.0 && cloud_max_depth <= 1000.0)) {
+  if (!(cloud_max_depth > 0.0 && cloud_max_depth <= 1000.0)) {
     os << "cloud_max_depth = " << cloud_max_depth << " must be in (0, 1000]";
   } else if (!(min_image_contrast >= 0.0 && min_image_contrast <= 128.0)) {
     os << "min_image_contrast = " << min_image_contrast << " must be in [0, 128]";
@@ -28,11 +29,9 @@ const ParamFieldList<DisparityRosConfig>& disparityRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("queue_size", &R::queue_size).closed(1, 1000).doc("subscriber and sync queue.");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate instead of exact image / CameraInfo sync (cameras without hardware "
-            "sync).");
+    addSyncFields(l, "subscriber and sync queue.",
+                  "approximate instead of exact image / CameraInfo sync (cameras without "
+                  "hardware sync).");
     l.add("cloud_max_depth", &R::cloud_max_depth)
         .openClosed(0, 1000)
         .unit("m")

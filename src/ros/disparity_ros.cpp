@@ -45,26 +45,16 @@ constexpr StepLabel kFilterSteps[] = {
 
 }  // namespace
 
-DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
+DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh) : FrameNodeletShell(nh, pnh) {
   // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "stereo camera", "disparity",
+  startDiagnostics(
+      "stereo camera", "disparity",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kWall);
-  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &pipeline_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, disparityParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, disparityParameterNames())) return;
   pipeline_.setConfig(pipeline_config_);
   StereoInputCheckConfig check;
   check.min_contrast = ros_config_.min_image_contrast;
@@ -90,17 +80,10 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   // The server reads the (already validated) start-up values from the parameter server and calls
   // reconfigureCb once with them.
-  reconfigure_ =
-      std::make_unique<dynamic_reconfigure::Server<DisparityConfig>>(reconfigure_mutex_, pnh_);
-  reconfigure_->setCallback(boost::bind(&DisparityRos::reconfigureCb, this, boost::placeholders::_1,
-                                        boost::placeholders::_2));
+  reconfigure_.start(
+      pnh_, [this](DisparityConfig& config, std::uint32_t level) { reconfigureCb(config, level); });
 
-  worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); }, [this] { return 0.0; },
-               [this](const std::string& what) {
-                 reject("exception", "frame skipped after an exception: " + what);
-               });
-  });
+  startWorker([this](const Frame& frame) { processFrame(frame); }, [] { return 0.0; });
 
   // Monitor whether anyone listens; connectCb must not run between advertising and assigning
   // the publishers.
@@ -131,8 +114,7 @@ DisparityRos::~DisparityRos() {
     right_info_sub_.unsubscribe();
     subscribed_ = false;
   }
-  slot_.stop();
-  if (worker_.joinable()) worker_.join();
+  stopWorker();
   diagnostics_->stop();
 }
 
@@ -189,14 +171,6 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
   }
 }
 
-void DisparityRos::reject(const std::string& reason, const std::string& detail) {
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++counts_.rejected;
-  }
-  problems_.report(reason, detail);
-}
-
 void DisparityRos::processFrame(const Frame& frame) {
   const auto t0 = std::chrono::steady_clock::now();
 
@@ -226,21 +200,21 @@ void DisparityRos::processFrame(const Frame& frame) {
   // Geometry: zero / non-finite focal length or baseline, NaN in P, info sizes that differ.
   std::string err = cameraModelFromCameraInfo(*frame.left_info, *frame.right_info, &camera_);
   if (!err.empty()) {
-    reject("bad camera info", "dropped a stereo frame: " + err);
+    books_.reject("bad camera info", "dropped a stereo frame: " + err);
     return;
   }
   if (left.width != right.width || left.height != right.height) {
-    reject("size mismatch", "dropped a stereo frame: left image " +
-                                sizeString(left.width, left.height) + " and right image " +
-                                sizeString(right.width, right.height) + " differ in size");
+    books_.reject("size mismatch", "dropped a stereo frame: left image " +
+                                       sizeString(left.width, left.height) + " and right image " +
+                                       sizeString(right.width, right.height) + " differ in size");
     return;
   }
   if (static_cast<int>(left.width) != camera_.width ||
       static_cast<int>(left.height) != camera_.height) {
-    reject("size mismatch", "dropped a stereo frame: images are " +
-                                sizeString(left.width, left.height) + " but the CameraInfo says " +
-                                sizeString(camera_.width, camera_.height) +
-                                " (binning / ROI applied); are the images rectified?");
+    books_.reject("size mismatch",
+                  "dropped a stereo frame: images are " + sizeString(left.width, left.height) +
+                      " but the CameraInfo says " + sizeString(camera_.width, camera_.height) +
+                      " (binning / ROI applied); are the images rectified?");
     return;
   }
   cv::Mat left_grey, right_grey;
@@ -248,19 +222,20 @@ void DisparityRos::processFrame(const Frame& frame) {
   if (err.empty()) err = rectifiedImageToGrey(right, "right", &right_buffer_, &right_grey);
   if (!err.empty()) {
     const bool encoding = err.find("encoding") != std::string::npos;
-    reject(encoding ? "unsupported encoding" : "bad image", "dropped a stereo frame: " + err);
+    books_.reject(encoding ? "unsupported encoding" : "bad image",
+                  "dropped a stereo frame: " + err);
     return;
   }
   // A covered, black or frozen camera: matching would give confident-looking wrong disparities.
   const StereoInputProblem problem = input_check_.check(left_grey, right_grey, &err);
   if (problem != StereoInputProblem::kNone) {
-    reject(toString(problem), "dropped a stereo frame: " + err);
+    books_.reject(toString(problem), "dropped a stereo frame: " + err);
     return;
   }
 
   DisparityStats stats;
   if (!pipeline_.compute(left_grey, right_grey, &disparity_, &stats, &err)) {
-    reject("disparity failed", "dropped a stereo frame: " + toParameterNames(err));
+    books_.reject("disparity failed", "dropped a stereo frame: " + toParameterNames(err));
     return;
   }
 

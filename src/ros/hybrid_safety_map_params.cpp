@@ -12,12 +12,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-std::string rangeError(const char* name, double value, const char* range) {
-  std::ostringstream os;
-  os << name << " = " << value << " is out of range " << range;
-  return os.str();
-}
-
 // The nodelet's settings, then the laser grid's window in cells from laser_size_x / laser_size_y
 // and resolution (stored into `p`), then the laser grid's and the combination's validate().
 std::string finishHybrid(HybridSafetyMapParams* p) {

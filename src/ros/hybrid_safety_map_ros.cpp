@@ -13,25 +13,15 @@
 
 namespace stereo_safety_map {
 
-namespace {}  // namespace
-
 HybridSafetyMapRos::HybridSafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "laser + stereo", "hybrid safety map",
+    : NodeletShell(nh, pnh) {
+  startDiagnostics(
+      "laser + stereo", "hybrid safety map",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kRos);
 
   const std::string err = fromRosParam(pnh_, &ros_config_, &laser_config_, &hybrid_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, hybridSafetyMapParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, hybridSafetyMapParameterNames())) return;
   laser_ = std::make_unique<LaserGrid>(laser_config_);                  // validated: no throw
   builder_ = std::make_unique<HybridSafetyMapBuilder>(hybrid_config_);  // validated: no throw
 

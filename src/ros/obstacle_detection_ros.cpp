@@ -104,32 +104,18 @@ std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xy
 }
 
 ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "stereo camera", "obstacle detection",
+    : FrameNodeletShell(nh, pnh) {
+  startDiagnostics(
+      "stereo camera", "obstacle detection",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kRos);
-  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &detector_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, obstacleDetectionParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, obstacleDetectionParameterNames())) return;
   detector_ = std::make_unique<ObstacleDetector>(detector_config_);  // validated: does not throw
 
-  worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); }, [this] { return 0.0; },
-               [this](const std::string& what) {
-                 books_.reject("exception", "frame skipped after an exception: " + what);
-               });
-  });
+  startWorker([this](const Frame& frame) { processFrame(frame); }, [] { return 0.0; });
   setUpInputs();
 
   // Advertise last: connectCb may run as soon as a publisher exists.
@@ -155,8 +141,7 @@ ObstacleDetectionRos::~ObstacleDetectionRos() {
     if (input_) input_->shutdown();  // none when the parameters were refused
     subscribed_ = false;
   }
-  slot_.stop();
-  if (worker_.joinable()) worker_.join();
+  stopWorker();
   diagnostics_->stop();
 }
 
@@ -186,11 +171,7 @@ void ObstacleDetectionRos::connectCb() {
 }
 
 void ObstacleDetectionRos::enqueue(std::unique_ptr<Frame> frame) {
-  if (slot_.put(std::move(frame)) != FrameSlot<Frame>::Put::kReplaced) return;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    counts_.countDropped();
-  }
+  if (!putFrame(std::move(frame))) return;
   if (problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": frames arrive faster than obstacles are detected: the waiting "
                              "frame was replaced by a newer one");

@@ -3,6 +3,7 @@
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <cmath>
 #include <sstream>
@@ -42,26 +43,14 @@ const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("input", &R::input)
-        .oneOf({"disparity", "cloud"})
-        .doc(
-            "input type: stereo_msgs/DisparityImage + left CameraInfo, or an organised "
-            "sensor_msgs/PointCloud2 (one point per pixel).");
-    l.add("fixed_frame", &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc("its z axis is \"up\" (003 Def. 1 heights); frame of the outputs.");
+    addInputField(l,
+                  "input type: stereo_msgs/DisparityImage + left CameraInfo, or an organised "
+                  "sensor_msgs/PointCloud2 (one point per pixel).");
+    addFixedFrameField(l, "its z axis is \"up\" (003 Def. 1 heights); frame of the outputs.");
     l.add("method", &R::method)
         .oneOf({"3d", "columnwise"})
         .doc("OD / OS Algorithm 2 (003 Sec. 2-3), or the column-wise baseline (003 Sec. 1, 6).");
-    l.add("queue_size", &R::queue_size)
-        .closed(1, 1000)
-        .doc(
-            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
-            "CameraInfo).");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
-            "CameraInfo sync (our matcher, see the safety map's Bad input).");
+    addSyncFields(l);
     l.add("min_depth", &R::min_depth)
         .atLeast(0)
         .unit("m")
@@ -105,15 +94,15 @@ const ParamFieldList<ObstacleCueRosConfig>& obstacleCueFields() {
 }
 
 std::string ObstacleDetectionRosConfig::validate() const {
+  const std::string input_error =
+      firstError({inputError(input), frameError("fixed_frame", fixed_frame,
+                                                "a tf frame whose z axis points up (e.g. odom)")});
+  if (!input_error.empty()) return input_error;
   std::ostringstream os;
-  if (input != "disparity" && input != "cloud") {
-    os << "input = '" << input << "', must be 'disparity' or 'cloud'";
-  } else if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame whose z axis points up (e.g. odom)";
-  } else if (method != "3d" && method != "columnwise") {
+  if (method != "3d" && method != "columnwise") {
     os << "method = '" << method << "', must be '3d' or 'columnwise'";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
+  } else if (!queueSizeError(queue_size).empty()) {
+    os << queueSizeError(queue_size);
   } else if (!std::isfinite(min_depth) || min_depth < 0.0) {
     os << "min_depth = " << min_depth << ", must be >= 0 m";
   } else if (!std::isfinite(max_depth) || max_depth <= min_depth || max_depth > 1000.0) {

@@ -3,6 +3,7 @@
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/param_yaml.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <cmath>
 #include <sstream>
@@ -27,21 +28,10 @@ std::string applyYaml(const YAML::Node& root, const std::string& where, Occupanc
 }  // namespace
 
 std::string Occupancy2DRosConfig::validate() const {
-  std::ostringstream os;
-  if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
-  } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
-  } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {
-    os << "max_rate = " << max_rate << ", must be in [0, 1000] Hz (0 = every frame)";
-  } else if (!std::isfinite(tf_timeout) || tf_timeout < 0.0 || tf_timeout > 10.0) {
-    os << "tf_timeout = " << tf_timeout << ", must be in [0, 10] s";
-  } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
-    os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
-  }
-  return os.str();
+  return firstError({frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
+                     frameError("base_frame", base_frame, "a tf frame (e.g. base_footprint)"),
+                     queueSizeError(queue_size), maxRateError(max_rate), tfTimeoutError(tf_timeout),
+                     timeJumpResetError(time_jump_reset)});
 }
 
 const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {
@@ -49,35 +39,16 @@ const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("fixed_frame", &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc("frame the grid is built and published in (not in 002).");
-    l.add("base_frame", &R::base_frame)
-        .rangeText("non-empty")
-        .doc(
-            "robot frame, origin on the floor: the band's floor and the window's centre (not in "
-            "002).");
-    l.add("queue_size", &R::queue_size)
-        .closed(1, 1000)
-        .doc(
-            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
-            "CameraInfo).");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
-            "CameraInfo sync (our matcher, see Bad input).");
-    l.add("max_rate", &R::max_rate)
-        .closed(0, 1000)
-        .unit("Hz")
-        .doc("most frames processed per second, 0 = every frame (002 Sec. 1 ran at 5 Hz).");
-    l.add("tf_timeout", &R::tf_timeout)
-        .closed(0, 10)
-        .unit("s")
-        .doc("wait for the base frame's transform.");
-    l.add("time_jump_reset", &R::time_jump_reset)
-        .closed(0, 3600)
-        .unit("s")
-        .doc("stamps going back by more than this clear the grid; less: the frame is dropped.");
+    addFixedFrameField(l, "frame the grid is built and published in (not in 002).");
+    addBaseFrameField(l,
+                      "robot frame, origin on the floor: the band's floor and the window's centre "
+                      "(not in 002).");
+    addSyncFields(l);
+    addMaxRateField(l).doc(
+        "most frames processed per second, 0 = every frame (002 Sec. 1 ran at 5 Hz).");
+    addTfTimeoutField(l);
+    addTimeJumpResetField(
+        l, "stamps going back by more than this clear the grid; less: the frame is dropped.");
     l.add("scroll_with_robot", &R::scroll_with_robot)
         .doc("keep the window centred on the robot (not in 002: a building-sized map).");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");

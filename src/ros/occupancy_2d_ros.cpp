@@ -12,35 +12,21 @@ namespace stereo_safety_map {
 namespace {}  // namespace
 
 Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "stereo camera", "occupancy grid 2d",
+    : FrameNodeletShell(nh, pnh) {
+  startDiagnostics(
+      "stereo camera", "occupancy grid 2d",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kRos);
-  counts_.window_start = ros::WallTime::now();
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &grid_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, occupancy2DParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, occupancy2DParameterNames())) return;
   grid_ = std::make_unique<OccupancyGrid2D>(grid_config_);  // validated above: does not throw
 
   grid_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("occupancy_2d", 1, true);
   reset_srv_ = pnh_.advertiseService("reset", &Occupancy2DRos::resetSrv, this);
-  worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); },
-               [this] { return ros_config_.max_rate; },
-               [this](const std::string& what) {
-                 books_.reject("exception", "frame skipped after an exception: " + what);
-               });
-  });
+  startWorker([this](const Frame& frame) { processFrame(frame); },
+              [this] { return ros_config_.max_rate; });
   setUpInputs();
   ROS_INFO_STREAM(name_ << ": 2D occupancy grid (002) in '" << ros_config_.fixed_frame
                         << "', height band " << grid_config_.floor_clearance << " .. "
@@ -52,18 +38,14 @@ Occupancy2DRos::~Occupancy2DRos() {
   // Inputs first, so that no callback enqueues while the worker stops: the subscriptions end
   // (each waits for its callback in progress), then the filters (stereo_input.h: shutdown()).
   if (input_) input_->shutdown();  // none when the parameters were refused
-  slot_.stop();
-  if (worker_.joinable()) worker_.join();
+  stopWorker();
   diagnostics_->stop();
 }
 
 void Occupancy2DRos::setUpInputs() {
   auto options = StereoInput::Options::of(ros_config_);
   input_ = std::make_unique<StereoInput>(nh_, options, books_, [this](StereoFrame&& in) {
-    if (slot_.put(std::make_unique<Frame>(std::move(in))) == FrameSlot<Frame>::Put::kReplaced) {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      counts_.countDropped();
-    }
+    putFrame(std::make_unique<Frame>(std::move(in)));
   });
 }
 

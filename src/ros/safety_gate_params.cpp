@@ -12,12 +12,6 @@ namespace stereo_safety_map {
 
 namespace {
 
-std::string rangeError(const char* name, double value, const char* range) {
-  std::ostringstream os;
-  os << name << " = " << value << " is out of range " << range;
-  return os.str();
-}
-
 bool number(const XmlRpc::XmlRpcValue& v, double* out) {
   if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
     *out = static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(v));

@@ -1,5 +1,6 @@
 #include "stereo_safety_map/ros/safety_gate_ros.h"
 
+#include "stereo_safety_map/ros/conversions.h"
 #include "stereo_safety_map/ros/param_reader.h"
 #include "stereo_safety_map/ros/safety_map_msg_conversions.h"
 
@@ -27,54 +28,28 @@ bool finite(const geometry_msgs::Twist& t) {
          std::isfinite(t.angular.x) && std::isfinite(t.angular.y) && std::isfinite(t.angular.z);
 }
 
-std_msgs::ColorRGBA rgba(float r, float g, float b, float a) {
-  std_msgs::ColorRGBA c;
-  c.r = r;
-  c.g = g;
-  c.b = b;
-  c.a = a;
-  return c;
-}
-
-geometry_msgs::Point point(double x, double y, double z) {
-  geometry_msgs::Point p;
-  p.x = x;
-  p.y = y;
-  p.z = z;
-  return p;
-}
-
 std_msgs::ColorRGBA stateColour(GateState s, float alpha) {
   switch (s) {
     case GateState::kAllowed:
-      return rgba(0.1f, 0.8f, 0.1f, alpha);
+      return colorMsg(0.1f, 0.8f, 0.1f, alpha);
     case GateState::kSlowed:
-      return rgba(1.0f, 0.75f, 0.0f, alpha);
+      return colorMsg(1.0f, 0.75f, 0.0f, alpha);
     default:
-      return rgba(0.9f, 0.1f, 0.1f, alpha);
+      return colorMsg(0.9f, 0.1f, 0.1f, alpha);
   }
 }
 
 }  // namespace
 
-SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "safety gate", "safety gate",
+SafetyGateRos::SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh) : NodeletShell(nh, pnh) {
+  startDiagnostics(
+      "safety gate", "safety gate",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kRos);
   rate_window_start_ = ros::WallTime::now();
 
   const std::string err = fromRosParam(pnh_, &ros_config_, &gate_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, safetyGateParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, safetyGateParameterNames())) return;
   gate_ = std::make_unique<SafetyGate>(gate_config_);  // validated: no throw
   SafetyGate::stop(GateReason::kNoMap, "stopped: no safety map received yet", 0.0, 0.0, &decision_);
 
@@ -295,7 +270,7 @@ void SafetyGateRos::publish(const GateDecision& d, const ros::Time& now, double 
   s->cell_valid = d.cell.valid;
   s->cell_u = d.cell.u;
   s->cell_v = d.cell.v;
-  s->cell_position = point(d.cell.x, d.cell.y, 0.0);
+  s->cell_position = pointMsg(d.cell.x, d.cell.y, 0.0);
   s->cell_label = static_cast<std::uint8_t>(d.cell.label);
   s->cell_drop_off = d.cell.drop_off;
   s->cell_slope_deg = d.cell.slope_deg;
@@ -327,13 +302,13 @@ void SafetyGateRos::publishMarkers(const GateDecision& d, const ros::Time& now, 
     m.color = c;
     m.points.clear();
     for (const Eigen::Vector2d& p : poly)
-      m.points.push_back(point(p.x(), p.y(), zz));
+      m.points.push_back(pointMsg(p.x(), p.y(), zz));
     m.points.push_back(m.points.front());
     arr->markers.push_back(m);
   };
   outline("footprint", d.footprint, stateColour(d.state, 1.0f), 0.04);
   outline("stop_zone", d.stop_zone, stateColour(d.state, 0.6f), 0.015);
-  outline("stop_footprint", d.stop_footprint, rgba(0.2f, 0.4f, 1.0f, 0.8f), 0.02);
+  outline("stop_footprint", d.stop_footprint, colorMsg(0.2f, 0.4f, 1.0f, 0.8f), 0.02);
   if (!d.zone_cells.empty()) {
     m.ns = "stop_zone_cells";
     m.id = 0;
@@ -343,7 +318,7 @@ void SafetyGateRos::publishMarkers(const GateDecision& d, const ros::Time& now, 
     m.color = stateColour(d.state, 0.25f);
     m.points.clear();
     for (const Eigen::Vector2d& p : d.zone_cells)
-      m.points.push_back(point(p.x(), p.y(), z + 0.01));
+      m.points.push_back(pointMsg(p.x(), p.y(), z + 0.01));
     arr->markers.push_back(m);
   }
   if (d.cell.valid) {
@@ -351,16 +326,16 @@ void SafetyGateRos::publishMarkers(const GateDecision& d, const ros::Time& now, 
     m.id = 0;
     m.type = visualization_msgs::Marker::CUBE;
     m.points.clear();
-    m.pose.position = point(d.cell.x, d.cell.y, z + 0.05);
+    m.pose.position = pointMsg(d.cell.x, d.cell.y, z + 0.05);
     m.scale.x = m.scale.y = 0.1;
     m.scale.z = 0.1;
-    m.color = rgba(1.0f, 0.0f, 0.0f, 0.9f);
+    m.color = colorMsg(1.0f, 0.0f, 0.0f, 0.9f);
     arr->markers.push_back(m);
     m.ns = "reason";
     m.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
     m.pose.position.z = z + 0.35;
     m.scale.z = 0.15;
-    m.color = rgba(1.0f, 1.0f, 1.0f, 1.0f);
+    m.color = colorMsg(1.0f, 1.0f, 1.0f, 1.0f);
     m.text = toString(d.reason);
     arr->markers.push_back(m);
   }

@@ -2,6 +2,7 @@
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <xmlrpcpp/XmlRpcValue.h>
 
@@ -17,25 +18,18 @@ std::string fromRosParam(const ros::NodeHandle& pnh, SafetyMapperConfig* c) {
 }
 
 std::string SafetyMapRosConfig::validate() const {
+  const std::string input_error = firstError(
+      {inputError(input), frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
+       frameError("base_frame", base_frame, "a tf frame (e.g. base_footprint)"),
+       queueSizeError(queue_size), maxRateError(max_rate), tfTimeoutError(tf_timeout)});
+  if (!input_error.empty()) return input_error;
   std::ostringstream os;
-  if (input != "disparity" && input != "cloud") {
-    os << "input = '" << input << "', must be 'disparity' or 'cloud'";
-  } else if (fixed_frame.empty()) {
-    os << "fixed_frame is empty, must name a tf frame (e.g. odom)";
-  } else if (base_frame.empty()) {
-    os << "base_frame is empty, must name a tf frame (e.g. base_footprint)";
-  } else if (queue_size < 1 || queue_size > 1000) {
-    os << "queue_size = " << queue_size << ", must be in [1, 1000]";
-  } else if (!std::isfinite(max_rate) || max_rate < 0.0 || max_rate > 1000.0) {
-    os << "max_rate = " << max_rate << ", must be in [0, 1000] Hz (0 = every frame)";
-  } else if (!std::isfinite(tf_timeout) || tf_timeout < 0.0 || tf_timeout > 10.0) {
-    os << "tf_timeout = " << tf_timeout << ", must be in [0, 10] s";
-  } else if (disparity_step < 1 || disparity_step > 16) {
+  if (disparity_step < 1 || disparity_step > 16) {
     os << "disparity_step = " << disparity_step << ", must be in [1, 16]";
   } else if (!row_gap_fill.validate().empty()) {
     os << row_gap_fill.validate();
-  } else if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
-    os << "time_jump_reset = " << time_jump_reset << ", must be in [0, 3600] s";
+  } else if (!timeJumpResetError(time_jump_reset).empty()) {
+    os << timeJumpResetError(time_jump_reset);
   } else if (save_directory.empty() || save_directory.front() != '/') {
     os << "save_directory = '" << save_directory
        << "', must be an absolute path such as /tmp/stereo_safety_map";
@@ -59,53 +53,32 @@ const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
-    l.add("input", &R::input)
-        .oneOf({"disparity", "cloud"})
-        .doc(
-            "input type: stereo_msgs/DisparityImage + CameraInfo, or sensor_msgs/PointCloud2 "
-            "from any depth sensor.");
-    l.add("fixed_frame", &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc("frame the map is built in; only needs to be locally consistent (000 Sec. III).");
-    l.add("base_frame", &R::base_frame)
-        .rangeText("non-empty")
-        .doc(
-            "robot frame, origin on the ground under the robot (000 Alg. 1 step 2); REP 120's "
-            "footprint frame.");
+    addInputField(l,
+                  "input type: stereo_msgs/DisparityImage + CameraInfo, or sensor_msgs/PointCloud2 "
+                  "from any depth sensor.");
+    addFixedFrameField(
+        l, "frame the map is built in; only needs to be locally consistent (000 Sec. III).");
+    addBaseFrameField(l,
+                      "robot frame, origin on the ground under the robot (000 Alg. 1 step 2); "
+                      "REP 120's footprint frame.");
     l.add("sensor_frame", &R::sensor_frame)
         .rangeText("tf frame or empty")
         .doc(
             "input cloud: the sensor's frame, where its rays start (free space, stationary "
             "frames), for a cloud already transformed into another frame (the robot's, odom); "
             "empty = the cloud's own frame (ours).");
-    l.add("queue_size", &R::queue_size)
-        .closed(1, 1000)
-        .doc(
-            "subscriber / tf filter / sync queue (exact sync: disparities waiting for their "
-            "CameraInfo).");
-    l.add("approximate_sync", &R::approximate_sync)
-        .doc(
-            "approximate (message_filters' ApproximateTime) instead of exact DisparityImage-"
-            "CameraInfo sync (our matcher, see Bad input).");
-    l.add("max_rate", &R::max_rate)
-        .closed(0, 1000)
-        .unit("Hz")
+    addSyncFields(l);
+    addMaxRateField(l)
         .live(SafetyMapLevel::kRos)
         .doc(
             "most frames processed per second, 0 = every frame; newer frames replace a waiting "
             "one.");
-    l.add("tf_timeout", &R::tf_timeout)
-        .closed(0, 10)
-        .unit("s")
-        .doc("wait for the base frame's transform.");
+    addTfTimeoutField(l);
     l.add("disparity_step", &R::disparity_step).closed(1, 16).doc("use every n-th pixel.");
-    l.add("time_jump_reset", &R::time_jump_reset)
-        .closed(0, 3600)
-        .unit("s")
-        .doc(
-            "stamps going back by more than this, with the clock going back too (a bag "
-            "restarted), reset the map once; otherwise the frame is dropped (a stale message "
-            "never wipes the map).");
+    addTimeJumpResetField(l,
+                          "stamps going back by more than this, with the clock going back too (a "
+                          "bag restarted), reset the map once; otherwise the frame is dropped (a "
+                          "stale message never wipes the map).");
     l.add("max_tf_wait", &R::max_tf_wait)
         .openClosed(0, 3600)
         .unit("s")

@@ -27,14 +27,13 @@ constexpr double kAgePeriod = 0.25;  // [s] between two agings / staleness check
 
 }  // namespace
 
-SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), name_(pnh.getNamespace()), problems_(name_) {
+SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh) : FrameNodeletShell(nh, pnh) {
   // A wall timer: it reports while a bag is paused (nodelet_diagnostics.h).
-  diagnostics_ = std::make_unique<NodeletDiagnostics>(
-      nh_, pnh_, name_, "stereo camera", "safety map",
+  startDiagnostics(
+      "stereo camera", "safety map",
       [this](diagnostic_updater::DiagnosticStatusWrapper& stat) { diagnose(stat); },
       NodeletDiagnostics::Clock::kWall);
-  counts_.window_start = started_ = ros::WallTime::now();
+  started_ = counts_.window_start;
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &mapper_config_);
@@ -46,15 +45,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     if (!why.empty()) err = "invalid parameter in " + pnh_.getNamespace() + ": landmark_" + why;
   }
   if (err.empty()) err = fromRosParam(pnh_, &cue_config_);
-  if (!err.empty()) {
-    config_error_ = err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: " << err);
-    diagnostics_->refuse(config_error_);
-    return;
-  }
-  for (const std::string& p : unknownParameters(pnh_, safetyMapParameterNames())) {
-    ROS_WARN_STREAM(name_ << ": ignoring unknown parameter ~" << p << " (a typo?)");
-  }
+  if (!acceptParams(err, safetyMapParameterNames())) return;
   // The core's frame path (stereo_frame_processor.h), the one the offline evaluators run.
   StereoFrameProcessorConfig processor_config;
   processor_config.mapper = mapper_config_;
@@ -65,10 +56,7 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
   processor_config.cue = cue_config_.cue;
   err = processor_config.validate();  // each part was validated as it was read
   if (!err.empty()) {
-    config_error_ = "invalid parameter in " + pnh_.getNamespace() + ": " + err;
-    ROS_ERROR_STREAM(name_ << ": refusing to start with an invalid configuration: "
-                           << config_error_);
-    diagnostics_->refuse(config_error_);
+    refuse("invalid parameter in " + pnh_.getNamespace() + ": " + err);
     return;
   }
   processor_ = std::make_unique<StereoFrameProcessor>(processor_config);  // valid: no throw
@@ -98,18 +86,11 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   // The server reads the (already validated) start-up values from the parameter server and calls
   // reconfigureCb once with them.
-  reconfigure_ =
-      std::make_unique<dynamic_reconfigure::Server<SafetyMapConfig>>(reconfigure_mutex_, pnh_);
-  reconfigure_->setCallback(boost::bind(&SafetyMapRos::reconfigureCb, this, boost::placeholders::_1,
-                                        boost::placeholders::_2));
+  reconfigure_.start(
+      pnh_, [this](SafetyMapConfig& config, std::uint32_t level) { reconfigureCb(config, level); });
 
-  worker_ = std::thread([this] {
-    slot_.work([this](const Frame& frame) { processFrame(frame); },
-               [this] { return max_rate_.load(); },
-               [this](const std::string& what) {
-                 books_.reject("exception", "frame skipped after an exception: " + what);
-               });
-  });
+  startWorker([this](const Frame& frame) { processFrame(frame); },
+              [this] { return max_rate_.load(); });
   age_timer_ = nh_.createWallTimer(ros::WallDuration(kAgePeriod),
                                    [this](const ros::WallTimerEvent&) { ageTimerCb(); });
   setUpInputs();
@@ -130,10 +111,9 @@ SafetyMapRos::~SafetyMapRos() {
   diagnostics_->stop();
   reset_srv_.shutdown();
   save_srv_.shutdown();
-  reconfigure_.reset();
+  reconfigure_.stop();
   if (input_) input_->shutdown();  // none when the parameters were refused
-  slot_.stop();
-  if (worker_.joinable()) worker_.join();
+  stopWorker();
 }
 
 void SafetyMapRos::processFrame(const Frame& frame) {

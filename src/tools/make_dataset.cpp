@@ -210,15 +210,6 @@ nav_msgs::OccupancyGrid gridMsg(const ds::GroundTruthMap& m, bool raw) {
   return g;
 }
 
-std_msgs::ColorRGBA rgba(float r, float g, float b, float a) {
-  std_msgs::ColorRGBA c;
-  c.r = r;
-  c.g = g;
-  c.b = b;
-  c.a = a;
-  return c;
-}
-
 visualization_msgs::MarkerArray obstacleMarkers(const std::vector<ds::GroundTruthObstacle>& obs) {
   visualization_msgs::MarkerArray arr;
   int id = 0;
@@ -242,7 +233,7 @@ visualization_msgs::MarkerArray obstacleMarkers(const std::vector<ds::GroundTrut
     mk.scale.x = 2.0 * o.obb.half_size.x();
     mk.scale.y = 2.0 * o.obb.half_size.y();
     mk.scale.z = 2.0 * o.obb.half_size.z();
-    mk.color = rgba(0.8f, 0.2f, 0.2f, 0.6f);
+    mk.color = ssm::colorMsg(0.8f, 0.2f, 0.2f, 0.6f);
     mk.text = o.name;
     arr.markers.push_back(mk);
   }
@@ -262,9 +253,9 @@ visualization_msgs::MarkerArray planeMarkers(const std::vector<ds::GroundTruthPl
     mk.action = visualization_msgs::Marker::ADD;
     mk.pose.orientation.w = 1.0;
     mk.scale.x = mk.scale.y = mk.scale.z = 1.0;
-    mk.color = p.label == SafetyLabel::kLevel      ? rgba(0.2f, 0.8f, 0.2f, 0.7f)
-               : p.label == SafetyLabel::kInclined ? rgba(0.9f, 0.9f, 0.1f, 0.7f)
-                                                   : rgba(0.8f, 0.1f, 0.1f, 0.7f);
+    mk.color = p.label == SafetyLabel::kLevel      ? ssm::colorMsg(0.2f, 0.8f, 0.2f, 0.7f)
+               : p.label == SafetyLabel::kInclined ? ssm::colorMsg(0.9f, 0.9f, 0.1f, 0.7f)
+                                                   : ssm::colorMsg(0.8f, 0.1f, 0.1f, 0.7f);
     for (std::size_t i = 1; i + 1 < p.polygon.size(); ++i) {
       for (std::size_t k : {std::size_t(0), i, i + 1}) {
         geometry_msgs::Point pt;

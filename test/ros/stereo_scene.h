@@ -14,6 +14,7 @@
 // surface that no larger surface supports, i.e. what 002 Sec. 4.2 calls a spike.
 #pragma once
 
+#include "scene_camera.h"
 #include "scene_solids.h"
 
 #include "stereo_safety_map/core/stereo_camera_model.h"
@@ -36,15 +37,18 @@
 
 namespace stereo_scene {
 
-constexpr int kWidth = 320;
-constexpr int kHeight = 240;
-constexpr double kF = 250.0;
-constexpr double kCx = 160.0;
-constexpr double kCy = 120.0;
-constexpr double kBaseline = 0.12;
+// The camera (scene_camera.h), at its own height.
+using scene_camera::cameraInfo;
+using scene_camera::cameraModel;
+using scene_camera::kBaseline;
+using scene_camera::kCameraFrame;
+using scene_camera::kCx;
+using scene_camera::kCy;
+using scene_camera::kF;
+using scene_camera::kHeight;
+using scene_camera::kWidth;
+using scene_camera::toMsg;
 constexpr double kCameraHeight = 1.1;
-constexpr double kPitchDeg = 30.0;
-constexpr char kCameraFrame[] = "stereo_left_optical";
 
 constexpr double kFloorMin[2] = {-1.0, -4.0};
 constexpr double kFloorMax[2] = {6.0, 4.0};
@@ -60,30 +64,7 @@ constexpr int kPatchDisparity = 10;
 
 /// base_link -> left optical frame (x right, y down, z forward), pitched down.
 inline Eigen::Isometry3d baseToCamera() {
-  Eigen::Matrix3d level;  // optical axes in base_link: x -> -y, y -> -z, z -> +x
-  level << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  const Eigen::Matrix3d pitch =
-      Eigen::AngleAxisd(kPitchDeg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = pitch * level;
-  T.translation() = Eigen::Vector3d(0.0, 0.0, kCameraHeight);
-  return T;
-}
-
-inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
-                                             const std::string& child) {
-  geometry_msgs::TransformStamped t;
-  t.header.frame_id = parent;
-  t.child_frame_id = child;
-  t.transform.translation.x = T.translation().x();
-  t.transform.translation.y = T.translation().y();
-  t.transform.translation.z = T.translation().z();
-  const Eigen::Quaterniond q(T.linear());
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.rotation.w = q.w();
-  return t;
+  return scene_camera::baseToCamera(kCameraHeight);
 }
 
 /// The scene in the dataset's types (dataset/scene.h): the floor a slab whose top is z = 0 over
@@ -102,12 +83,7 @@ inline const stereo_safety_map::dataset::Scene& scene() {
 /// the ray o + t d, t > 0, with the floor or the box (Scene::intersect, the renderer's);
 /// infinity when nothing is hit.
 inline double castRay(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
-  stereo_safety_map::dataset::Ray ray;
-  ray.origin = o;
-  ray.dir = d;
-  stereo_safety_map::dataset::Hit hit;
-  const double inf = std::numeric_limits<double>::infinity();
-  return scene().intersect(ray, 0.0, inf, &hit) ? hit.t : inf;
+  return scene_camera::castRay(scene(), o, d);
 }
 
 inline double hash01(std::int64_t x, std::int64_t y, std::int64_t z, std::uint32_t seed) {
@@ -152,7 +128,7 @@ inline Eigen::Vector3d cameraCentre(bool right) {
 }
 
 inline Eigen::Vector3d rayDirection(double u, double v) {
-  return baseToCamera().linear() * Eigen::Vector3d((u - kCx) / kF, (v - kCy) / kF, 1.0);
+  return scene_camera::rayDirection(baseToCamera().linear(), u, v);
 }
 
 /// Renders one image (row-major mono8).
@@ -201,21 +177,6 @@ inline std::vector<float> analyticDisparity() {
 inline bool inPatch(int u, int v, int margin) {
   return u >= kPatchU0 - margin && u < kPatchU0 + kPatchSize + margin && v >= kPatchV0 - margin &&
          v < kPatchV0 + kPatchSize + margin;
-}
-
-inline stereo_safety_map::StereoCameraModel cameraModel() {
-  stereo_safety_map::StereoCameraModel m;
-  m.fx = m.fy = kF;
-  m.cx = m.cx_right = kCx;
-  m.cy = kCy;
-  m.baseline = kBaseline;
-  m.width = kWidth;
-  m.height = kHeight;
-  return m;
-}
-
-inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
 }
 
 inline sensor_msgs::Image imageMsg(const std::vector<std::uint8_t>& pixels,

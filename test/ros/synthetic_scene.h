@@ -6,6 +6,7 @@
 // the code that the renderer, the laser simulator and the ground truth use.
 #pragma once
 
+#include "scene_camera.h"
 #include "scene_solids.h"
 
 #include "stereo_safety_map/core/stereo_camera_model.h"
@@ -30,16 +31,19 @@
 
 namespace synthetic_scene {
 
-constexpr int kWidth = 320;
-constexpr int kHeight = 240;
-constexpr double kF = 250.0;
-constexpr double kCx = 160.0;
-constexpr double kCy = 120.0;
-constexpr double kBaseline = 0.12;
+// The camera (scene_camera.h), at its own height.
+using scene_camera::cameraInfo;
+using scene_camera::cameraModel;
+using scene_camera::kBaseline;
+using scene_camera::kCameraFrame;
+using scene_camera::kCx;
+using scene_camera::kCy;
+using scene_camera::kF;
+using scene_camera::kHeight;
+using scene_camera::kWidth;
+using scene_camera::toMsg;
 constexpr double kCameraHeight = 1.0;
-constexpr double kPitchDeg = 30.0;
 constexpr double kMaxDepth = 7.5;
-constexpr char kCameraFrame[] = "stereo_left_optical";
 
 // The box: x in [2.0, 2.6], y in [-0.3, 0.3], z in [0, 0.5] (odom).
 constexpr double kBoxMin[3] = {2.0, -0.3, 0.0};
@@ -47,30 +51,7 @@ constexpr double kBoxMax[3] = {2.6, 0.3, 0.5};
 
 /// base_link -> optical frame (x right, y down, z forward), pitched down.
 inline Eigen::Isometry3d baseToCamera() {
-  Eigen::Matrix3d level;  // optical axes in base_link: x -> -y, y -> -z, z -> +x
-  level << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  const Eigen::Matrix3d pitch =
-      Eigen::AngleAxisd(kPitchDeg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = pitch * level;
-  T.translation() = Eigen::Vector3d(0.0, 0.0, kCameraHeight);
-  return T;
-}
-
-inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
-                                             const std::string& child) {
-  geometry_msgs::TransformStamped t;
-  t.header.frame_id = parent;
-  t.child_frame_id = child;
-  t.transform.translation.x = T.translation().x();
-  t.transform.translation.y = T.translation().y();
-  t.transform.translation.z = T.translation().z();
-  const Eigen::Quaterniond q(T.linear());
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.rotation.w = q.w();
-  return t;
+  return scene_camera::baseToCamera(kCameraHeight);
 }
 
 /// The scene in the dataset's types: the floor a slab whose top is z = 0 (1 km wide: every ray
@@ -88,29 +69,10 @@ inline const stereo_safety_map::dataset::Scene& scene() {
 /// Depth (optical z) of pixel (u, v) for a camera at T_odom_camera; NaN when nothing is hit
 /// within kMaxDepth.
 inline double depthAt(const Eigen::Isometry3d& T_odom_camera, double u, double v) {
-  stereo_safety_map::dataset::Ray ray;
-  ray.origin = T_odom_camera.translation();
-  // z = 1 in the camera: the ray parameter t is the depth.
-  ray.dir = T_odom_camera.linear() * Eigen::Vector3d((u - kCx) / kF, (v - kCy) / kF, 1.0);
-  stereo_safety_map::dataset::Hit hit;
-  if (!scene().intersect(ray, 0.0, kMaxDepth, &hit))
-    return std::numeric_limits<double>::quiet_NaN();
-  return hit.t;
-}
-
-inline stereo_safety_map::StereoCameraModel cameraModel() {
-  stereo_safety_map::StereoCameraModel m;
-  m.fx = m.fy = kF;
-  m.cx = m.cx_right = kCx;
-  m.cy = kCy;
-  m.baseline = kBaseline;
-  m.width = kWidth;
-  m.height = kHeight;
-  return m;
-}
-
-inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
+  const double t =
+      scene_camera::castRay(scene(), T_odom_camera.translation(),
+                            scene_camera::rayDirection(T_odom_camera.linear(), u, v), kMaxDepth);
+  return std::isfinite(t) ? t : std::numeric_limits<double>::quiet_NaN();
 }
 
 /// Invalid pixels are -1 (below min_disparity = 0.5), as stereo_image_proc marks them.

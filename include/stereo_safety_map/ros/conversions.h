@@ -12,10 +12,12 @@
 #include "stereo_safety_map/core/voxel_grid.h"
 #include "stereo_safety_map/ros/msgs.h"
 
+#include <geometry_msgs/Point.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/ColorRGBA.h>
 #include <std_msgs/Header.h>
 #include <stereo_msgs/DisparityImage.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -141,6 +143,11 @@ void toMarkerArray(const SafetyMapper& mapper, const std_msgs::Header& header,
 /// them alike; this marker tells them apart. False (and no marker) when the map has none.
 bool dropOffEdgeMarker(const SafetyMap& map, const std_msgs::Header& header,
                        visualization_msgs::Marker* out);
+
+/// A marker's colour and point from their values (the package's markers: the safety map's, the
+/// gate's).
+std_msgs::ColorRGBA colorMsg(float r, float g, float b, float a);
+geometry_msgs::Point pointMsg(double x, double y, double z);
 
 /// The point lists of all occupied voxels (000 Sec. IV: the 3D point cloud of the model).
 void occupiedPointsToCloud(const VoxelGrid& grid, const std_msgs::Header& header,

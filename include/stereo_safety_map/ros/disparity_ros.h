@@ -23,10 +23,7 @@
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_input_check.h"
 #include "stereo_safety_map/ros/disparity_params.h"
-#include "stereo_safety_map/ros/frame_counters.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
-#include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -53,19 +50,21 @@
 
 namespace stereo_safety_map {
 
-class DisparityRos {
+/// One synchronised input frame of the disparity nodelet, waiting for its worker.
+struct StereoImageFrame {
+  sensor_msgs::ImageConstPtr left_image;
+  sensor_msgs::CameraInfoConstPtr left_info;
+  sensor_msgs::ImageConstPtr right_image;
+  sensor_msgs::CameraInfoConstPtr right_info;
+};
+
+class DisparityRos : public FrameNodeletShell<StereoImageFrame> {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
   /// advertises / subscribes to nothing: see ok() / configError().
   DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~DisparityRos();
-
-  DisparityRos(const DisparityRos&) = delete;
-  DisparityRos& operator=(const DisparityRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
 
  private:
   using Image = sensor_msgs::Image;
@@ -75,13 +74,7 @@ class DisparityRos {
   using ApproximatePolicy =
       message_filters::sync_policies::ApproximateTime<Image, CameraInfo, Image, CameraInfo>;
 
-  /// One synchronised input frame waiting for the worker.
-  struct Frame {
-    sensor_msgs::ImageConstPtr left_image;
-    sensor_msgs::CameraInfoConstPtr left_info;
-    sensor_msgs::ImageConstPtr right_image;
-    sensor_msgs::CameraInfoConstPtr right_info;
-  };
+  using Frame = StereoImageFrame;
 
   void connectCb();
   void imageCb(const sensor_msgs::ImageConstPtr& left_image,
@@ -91,17 +84,10 @@ class DisparityRos {
   void processFrame(const Frame& frame);
   void publishDisparity(const std_msgs::Header& header);
   void publishCloud(const std_msgs::Header& header);
-  /// Counts a refused frame under `reason` (a short category) and logs `detail`, throttled.
-  void reject(const std::string& reason, const std::string& detail);
 
   void reconfigureCb(DisparityConfig& config, uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
-  std::string config_error_;
   DisparityRosConfig ros_config_;
   DisparityPipelineConfig pipeline_config_;  ///< accepted configuration (reconfigure thread)
 
@@ -120,13 +106,7 @@ class DisparityRos {
   ros::Publisher disparity_pub_;
   ros::Publisher cloud_pub_;
   image_transport::Publisher debug_pub_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
-  boost::recursive_mutex reconfigure_mutex_;         ///< outlives the server that uses it
-  std::unique_ptr<dynamic_reconfigure::Server<DisparityConfig>> reconfigure_;
-
-  // One-slot queue between the sync callback and the worker.
-  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
-  std::thread worker_;
+  ReconfigureServer<DisparityConfig> reconfigure_;  ///< (nodelet_shell.h)
 
   // A configuration accepted by dynamic_reconfigure, waiting for the worker.
   std::mutex pending_mutex_;
@@ -140,9 +120,7 @@ class DisparityRos {
   cv::Mat disparity_;
   cv::Mat xyz_;
 
-  // Counters and diagnostics (guarded by stats_mutex_).
-  std::mutex stats_mutex_;
-  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
+  // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
   DisparityStats last_stats_;
   std::string matcher_in_use_;
 };

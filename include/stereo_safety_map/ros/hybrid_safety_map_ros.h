@@ -21,8 +21,7 @@
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 #include "stereo_safety_map/ros/msgs.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
-#include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>
@@ -41,18 +40,12 @@
 
 namespace stereo_safety_map {
 
-class HybridSafetyMapRos {
+class HybridSafetyMapRos : public NodeletShell {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error, reports it as an ERROR diagnostic and subscribes to nothing (see ok()).
   HybridSafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~HybridSafetyMapRos();
-
-  HybridSafetyMapRos(const HybridSafetyMapRos&) = delete;
-  HybridSafetyMapRos& operator=(const HybridSafetyMapRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
 
  private:
   using ScanFilter = tf2_ros::MessageFilter<sensor_msgs::LaserScan>;
@@ -70,11 +63,6 @@ class HybridSafetyMapRos {
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
-  std::string config_error_;
   HybridSafetyMapRosConfig ros_config_;
   LaserGridConfig laser_config_;
   HybridSafetyMapConfig hybrid_config_;
@@ -89,7 +77,6 @@ class HybridSafetyMapRos {
   ros::Publisher labels_pub_;
   ros::Publisher laser_pub_;
   ros::ServiceServer reset_srv_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // The core and its inputs (guarded by core_mutex_).
   std::mutex core_mutex_;

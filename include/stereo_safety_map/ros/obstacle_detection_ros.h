@@ -19,11 +19,8 @@
 
 #include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/frame_counters.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -48,19 +45,13 @@ namespace stereo_safety_map {
 std::string organisedCloudToMat(const sensor_msgs::PointCloud2& msg, cv::Mat* xyz,
                                 std::size_t* non_finite = nullptr);
 
-class ObstacleDetectionRos {
+class ObstacleDetectionRos : public FrameNodeletShell<StereoFrame> {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
   /// advertises / subscribes to nothing: see ok() / configError().
   ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~ObstacleDetectionRos();
-
-  ObstacleDetectionRos(const ObstacleDetectionRos&) = delete;
-  ObstacleDetectionRos& operator=(const ObstacleDetectionRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
 
  private:
   using Frame = StereoFrame;
@@ -75,11 +66,6 @@ class ObstacleDetectionRos {
   void publishMarkers(const std_msgs::Header& header);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
-  std::string config_error_;
   ObstacleDetectionRosConfig ros_config_;
   ObstacleDetectionConfig detector_config_;
 
@@ -92,11 +78,6 @@ class ObstacleDetectionRos {
   ros::Publisher label_image_pub_;
   ros::Publisher obstacles_pub_;
   ros::Publisher markers_pub_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
-
-  // One-slot queue between the callbacks and the worker.
-  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
-  std::thread worker_;
 
   // Worker-only: the core and buffers reused from frame to frame.
   std::unique_ptr<ObstacleDetector> detector_;
@@ -106,10 +87,7 @@ class ObstacleDetectionRos {
   cv::Mat xyz_;
   cv::Mat colour_;
 
-  // Counters and diagnostics (guarded by stats_mutex_).
-  std::mutex stats_mutex_;
-  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
-  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
+  // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
   double detection_ms_last_ = 0.0;
   double focal_length_last_ = 0.0;
   std::size_t valid_points_last_ = 0;

@@ -16,11 +16,8 @@
 
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/ros/frame_counters.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 #include "stereo_safety_map/ros/occupancy_2d_params.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -42,19 +39,13 @@
 
 namespace stereo_safety_map {
 
-class Occupancy2DRos {
+class Occupancy2DRos : public FrameNodeletShell<StereoFrame> {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
   /// subscribes to nothing: see ok() / configError().
   Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~Occupancy2DRos();
-
-  Occupancy2DRos(const Occupancy2DRos&) = delete;
-  Occupancy2DRos& operator=(const Occupancy2DRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -65,11 +56,6 @@ class Occupancy2DRos {
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
-  std::string config_error_;
   Occupancy2DRosConfig ros_config_;
   OccupancyGrid2DConfig grid_config_;
 
@@ -77,11 +63,6 @@ class Occupancy2DRos {
 
   ros::Publisher grid_pub_;
   ros::ServiceServer reset_srv_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
-
-  // One-slot queue between the callbacks and the worker.
-  FrameSlot<Frame> slot_;  ///< callbacks -> worker (frame_slot.h)
-  std::thread worker_;
 
   // Worker-only buffers, reused from frame to frame.
   cv::Mat disparity_;
@@ -93,10 +74,7 @@ class Occupancy2DRos {
   std::mutex core_mutex_;
   std::unique_ptr<OccupancyGrid2D> grid_;
 
-  // Counters and diagnostics (guarded by stats_mutex_).
-  std::mutex stats_mutex_;
-  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
-  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
+  // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
   std::uint64_t map_resets_ = 0;
   Grid2DUpdateStats last_update_;
 };

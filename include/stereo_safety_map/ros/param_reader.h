@@ -159,4 +159,12 @@ inline std::vector<std::string> unknownParameters(const ros::NodeHandle& pnh,
   return unknown;
 }
 
+/// "<name> = <value> is out of range <range>": the wording of the hybrid safety map's and the
+/// safety gate's validate().
+inline std::string rangeError(const char* name, double value, const char* range) {
+  std::ostringstream os;
+  os << name << " = " << value << " is out of range " << range;
+  return os.str();
+}
+
 }  // namespace stereo_safety_map

@@ -23,8 +23,7 @@
 #include "stereo_safety_map/core/safety_gate.h"
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/ros/msgs.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
-#include "stereo_safety_map/ros/problem_log.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 #include "stereo_safety_map/ros/safety_gate_params.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -41,18 +40,12 @@
 
 namespace stereo_safety_map {
 
-class SafetyGateRos {
+class SafetyGateRos : public NodeletShell {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error, reports it as an ERROR diagnostic, publishes nothing and subscribes to nothing.
   SafetyGateRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~SafetyGateRos();
-
-  SafetyGateRos(const SafetyGateRos&) = delete;
-  SafetyGateRos& operator=(const SafetyGateRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
 
  private:
   void mapCb(const SafetyMapMsg::ConstPtr& msg);
@@ -68,11 +61,6 @@ class SafetyGateRos {
   void publishMarkers(const GateDecision& d, const ros::Time& now, double z);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;
-  std::string config_error_;
   SafetyGateRosConfig ros_config_;
   SafetyGateConfig gate_config_;
 
@@ -84,7 +72,6 @@ class SafetyGateRos {
   ros::Publisher state_pub_;
   ros::Publisher markers_pub_;
   ros::Timer watchdog_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
 
   // Guarded by mutex_.
   std::mutex mutex_;

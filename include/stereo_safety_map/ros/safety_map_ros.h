@@ -45,11 +45,8 @@
 #include "stereo_safety_map/core/safety_mapper.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
-#include "stereo_safety_map/ros/frame_counters.h"
-#include "stereo_safety_map/ros/frame_slot.h"
-#include "stereo_safety_map/ros/nodelet_diagnostics.h"
+#include "stereo_safety_map/ros/nodelet_shell.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/problem_log.h"
 #include "stereo_safety_map/ros/safety_map_params.h"
 #include "stereo_safety_map/ros/stereo_input.h"
 
@@ -78,7 +75,12 @@
 
 namespace stereo_safety_map {
 
-class SafetyMapRos {
+/// One input frame of the safety-map nodelet, waiting for its worker.
+struct SafetyMapFrame : StereoFrame {
+  bool reset_map = false;  ///< time went back (the clock too): a restart, reset first
+};
+
+class SafetyMapRos : public FrameNodeletShell<SafetyMapFrame> {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object
   /// logs the error (naming the parameter and its range), publishes it as an ERROR diagnostic
@@ -86,19 +88,10 @@ class SafetyMapRos {
   SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh);
   ~SafetyMapRos();
 
-  SafetyMapRos(const SafetyMapRos&) = delete;
-  SafetyMapRos& operator=(const SafetyMapRos&) = delete;
-
-  bool ok() const { return config_error_.empty(); }
-  const std::string& configError() const { return config_error_; }
-
  private:
   using Clock = std::chrono::steady_clock;
 
-  /// One input frame waiting for the worker.
-  struct Frame : StereoFrame {
-    bool reset_map = false;  ///< time went back (the clock too): a restart, reset first
-  };
+  using Frame = SafetyMapFrame;
 
   void setUpInputs();
   /// A checked frame from the stereo input (disparity or cloud): on to enqueue().
@@ -130,11 +123,6 @@ class SafetyMapRos {
   void reconfigureCb(SafetyMapConfig& config, uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
-  std::string name_;
-  ProblemLog problems_;  ///< refusals by reason, throttled messages, the last problem
-  std::string config_error_;
   SafetyMapRosConfig ros_config_;
   SafetyMapperConfig mapper_config_;
 
@@ -151,16 +139,12 @@ class SafetyMapRos {
   ros::Publisher obstacles_pub_;  ///< safety_obstacles: the lethal cells as points
   ros::ServiceServer reset_srv_;
   ros::ServiceServer save_srv_;
-  std::unique_ptr<NodeletDiagnostics> diagnostics_;  ///< (nodelet_diagnostics.h)
   ros::WallTimer age_timer_;
-  boost::recursive_mutex reconfigure_mutex_;  ///< outlives the server that uses it
-  std::unique_ptr<dynamic_reconfigure::Server<SafetyMapConfig>> reconfigure_;
+  ReconfigureServer<SafetyMapConfig> reconfigure_;  ///< (nodelet_shell.h)
   std::mutex save_mutex_;
 
-  // One-slot queue between the callbacks and the worker.
-  FrameSlot<Frame> slot_;   ///< callbacks -> worker (frame_slot.h)
+  // The shell's one-slot queue: what decides the order of the frames put into it.
   ros::Time newest_stamp_;  ///< of the last frame put into the slot
-  std::thread worker_;
   std::atomic<double> max_rate_{0.0};
   std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)
 
@@ -190,10 +174,7 @@ class SafetyMapRos {
   std::atomic<std::uint64_t> stale_maps_{0};  ///< times the published map went stale
   std::vector<Eigen::Vector3f> obstacle_points_;
 
-  // Counters and diagnostics (guarded by stats_mutex_).
-  std::mutex stats_mutex_;
-  FrameCounters counts_;  ///< frames and the rate window (frame_counters.h)
-  FrameBooks books_{stats_mutex_, counts_, problems_};  ///< counts and reports refused frames
+  // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
   std::uint64_t frames_stationary_ = 0;
   std::uint64_t map_resets_ = 0;
   std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
