@@ -22,7 +22,7 @@ struct Layout {
   int xv0 = 0, xv1 = 0;            // columns with a column sum
   int x_first = 0, x_last = 0;     // window centres swept
   int left_min = 0, left_max = 0;  // valid left pixels (StereoBM's ROI)
-  int state_offset = 0, state_len = 0;
+  int cost_stride = 0;             // of the per-disparity cost rows (columns 0 .. x_last + 16)
   std::int16_t filtered = 0;
 };
 
@@ -45,9 +45,7 @@ Layout makeLayout(const cv::Size& size, const BlockMatcherParams& p) {
   l.x_last = l.w - 1 + l.k_max;
   l.left_min = l.k_max + l.r2;
   l.left_max = l.w - 1 - l.r2;
-  // Right pixels touched by the sweep: x_first - k_max .. x_last - k_min.
-  l.state_offset = l.k_max - l.x_first;
-  l.state_len = (l.x_last - l.k_min) + l.state_offset + 1 + 16;
+  l.cost_stride = ((l.x_last + 16) | 15) + 1;
   l.filtered = static_cast<std::int16_t>((p.min_disparity - 1) * 16);
   return l;
 }
@@ -97,23 +95,165 @@ __attribute__((target("avx2"))) inline int hmin16(__m256i v) {
   return static_cast<std::int16_t>(_mm_cvtsi128_si32(m));
 }
 
+// 16 x 16 transpose of int16: row i of src (16 values from src + i * src_stride) becomes column i
+// of dst (dst + j * dst_stride holds element j of every source row).
+__attribute__((target("avx2"))) inline void transpose16x16(const std::int16_t* src,
+                                                           std::size_t src_stride,
+                                                           std::int16_t* dst,
+                                                           std::size_t dst_stride) {
+  __m256i v[16], w[16];
+  for (int half = 0; half < 2; ++half) {
+    // An 8 x 8 transpose in each 128-bit lane of rows 8 * half .. 8 * half + 7.
+    __m256i r[8], t[8], u[8];
+    for (int i = 0; i < 8; ++i) {
+      r[i] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(
+          src + static_cast<std::size_t>(8 * half + i) * src_stride));
+    }
+    for (int i = 0; i < 4; ++i) {
+      t[2 * i] = _mm256_unpacklo_epi16(r[2 * i], r[2 * i + 1]);
+      t[2 * i + 1] = _mm256_unpackhi_epi16(r[2 * i], r[2 * i + 1]);
+    }
+    u[0] = _mm256_unpacklo_epi32(t[0], t[2]);
+    u[1] = _mm256_unpackhi_epi32(t[0], t[2]);
+    u[2] = _mm256_unpacklo_epi32(t[1], t[3]);
+    u[3] = _mm256_unpackhi_epi32(t[1], t[3]);
+    u[4] = _mm256_unpacklo_epi32(t[4], t[6]);
+    u[5] = _mm256_unpackhi_epi32(t[4], t[6]);
+    u[6] = _mm256_unpacklo_epi32(t[5], t[7]);
+    u[7] = _mm256_unpackhi_epi32(t[5], t[7]);
+    __m256i* o = half == 0 ? v : w;
+    for (int k = 0; k < 4; ++k) {
+      o[2 * k] = _mm256_unpacklo_epi64(u[k], u[k + 4]);
+      o[2 * k + 1] = _mm256_unpackhi_epi64(u[k], u[k + 4]);
+    }
+  }
+  // v[k]: column k (low lane) and k + 8 (high lane) of rows 0..7; w[k] the same of rows 8..15.
+  for (int k = 0; k < 8; ++k) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + static_cast<std::size_t>(k) * dst_stride),
+                        _mm256_permute2x128_si256(v[k], w[k], 0x20));
+    _mm256_storeu_si256(
+        reinterpret_cast<__m256i*>(dst + static_cast<std::size_t>(k + 8) * dst_stride),
+        _mm256_permute2x128_si256(v[k], w[k], 0x31));
+  }
+}
+
+// Packs two vectors of 8 int32 (values that fit int16) into 16 int16 in lane order.
+__attribute__((target("avx2"))) inline __m256i pack16(__m256i lo, __m256i hi) {
+  return _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+}
+
+// best + best * ratio / 100 (C's integer division) of 8 costs. In float it is exact: best * ratio
+// < 2^24 and a non-integer quotient is >= 0.01 from the next integer.
+__attribute__((target("avx2"))) inline __m256i uniquenessThreshold8(__m128i best16, int ratio) {
+  const __m256i b = _mm256_cvtepi16_epi32(best16);
+  const __m256 f =
+      _mm256_div_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(b), _mm256_set1_ps(static_cast<float>(ratio))),
+                    _mm256_set1_ps(100.0f));
+  return _mm256_add_epi32(b, _mm256_cvttps_epi32(f));
+}
+
+// subpixel() of 8 pixels: winner index d, its cost c, the costs p at d + 1 and n at d - 1. The
+// quotient (p - n) * 256 / den is truncated like C's integer division; in float it is exact
+// (|quotient| <= 128, den < 2^15, numerator < 2^24: a non-integer quotient is >= 2^-15 from an
+// integer, far more than the float's rounding error).
+__attribute__((target("avx2"))) inline __m256i subpixel8(const Layout& l, __m128i p16, __m128i n16,
+                                                         __m128i c16, __m128i d16) {
+  const __m256i pv = _mm256_cvtepi16_epi32(p16), nv = _mm256_cvtepi16_epi32(n16);
+  const __m256i cv = _mm256_cvtepi16_epi32(c16), dd = _mm256_cvtepi16_epi32(d16);
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256i diff = _mm256_sub_epi32(pv, nv);
+  const __m256i den = _mm256_sub_epi32(
+      _mm256_add_epi32(_mm256_add_epi32(pv, nv), _mm256_abs_epi32(diff)), _mm256_slli_epi32(cv, 1));
+  const __m256i den_zero = _mm256_cmpeq_epi32(den, zero);
+  const __m256 quot =
+      _mm256_div_ps(_mm256_cvtepi32_ps(_mm256_slli_epi32(diff, 8)),
+                    _mm256_cvtepi32_ps(_mm256_blendv_epi8(den, _mm256_set1_epi32(1), den_zero)));
+  const __m256i qi = _mm256_blendv_epi8(_mm256_cvttps_epi32(quot), zero, den_zero);
+  const __m256i k = _mm256_sub_epi32(_mm256_set1_epi32(l.k_max), dd);
+  const __m256i inner = _mm256_srai_epi32(
+      _mm256_add_epi32(_mm256_add_epi32(_mm256_slli_epi32(k, 8), qi), _mm256_set1_epi32(15)), 4);
+  const __m256i edge = _mm256_or_si256(_mm256_cmpeq_epi32(dd, zero),
+                                       _mm256_cmpeq_epi32(dd, _mm256_set1_epi32(l.nd - 1)));
+  return _mm256_blendv_epi8(inner, _mm256_slli_epi32(k, 4), edge);
+}
+
+// StereoBM's winner of 16 pixels at once, each reading its cost at index d from p + d * step (the
+// left pixels x0..x0 + 15: step = the cost rows' stride; the right pixels xr0..xr0 + 15, whose
+// index d lies at left column xr + k_max - d: one column less per index). Indices are visited
+// from nd - 1 down to 0, the state in registers: winner (ties to the smaller index), its cost,
+// its neighbours' costs and the best cost away from it and its neighbours (uniqueness). Writes
+// the 16 disparities in 1/16 px (subpixel()'s rule) or l.filtered.
+__attribute__((target("avx2"))) inline void winners16(const Layout& l, const std::int16_t* p,
+                                                      std::ptrdiff_t step, std::int16_t* out) {
+  const int nd = l.nd;
+  const __m256i ones = _mm256_set1_epi16(1);
+  __m256i m1 = _mm256_set1_epi16(kInfinite), s2 = m1, pm = m1, cl = m1;
+  __m256i pp = _mm256_setzero_si256(), nn = pp, d1 = pp;
+  __m256i dv = _mm256_set1_epi16(static_cast<short>(nd - 1));
+  const std::int16_t* q = p + static_cast<std::ptrdiff_t>(nd - 1) * step;
+  for (int d = nd - 1; d >= 0; --d, q -= step) {
+    const __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(q));
+    // The winner so far was set at the previous visit (index d + 1): c is its neighbour.
+    const __m256i last_won = _mm256_cmpeq_epi16(d1, _mm256_add_epi16(dv, ones));
+    const __m256i not_new = _mm256_cmpgt_epi16(c, m1);  // ties go to the smaller index
+    const __m256i s_keep = _mm256_blendv_epi8(_mm256_min_epi16(s2, c), s2, last_won);
+    s2 = _mm256_blendv_epi8(pm, s_keep, not_new);
+    pp = _mm256_blendv_epi8(cl, pp, not_new);
+    nn = _mm256_blendv_epi8(nn, c, last_won);
+    m1 = _mm256_min_epi16(m1, c);
+    d1 = _mm256_blendv_epi8(dv, d1, not_new);
+    pm = _mm256_min_epi16(pm, cl);
+    cl = c;
+    dv = _mm256_sub_epi16(dv, ones);
+  }
+
+  // Uniqueness: rejected when s2 <= best + best * ratio / 100.
+  __m256i reject = _mm256_setzero_si256();
+  if (l.ratio > 0) {
+    const __m256i thresh = pack16(uniquenessThreshold8(_mm256_castsi256_si128(m1), l.ratio),
+                                  uniquenessThreshold8(_mm256_extracti128_si256(m1, 1), l.ratio));
+    reject = _mm256_cmpgt_epi16(_mm256_add_epi16(thresh, ones), s2);
+  }
+
+  const __m256i value =
+      pack16(subpixel8(l, _mm256_castsi256_si128(pp), _mm256_castsi256_si128(nn),
+                       _mm256_castsi256_si128(m1), _mm256_castsi256_si128(d1)),
+             subpixel8(l, _mm256_extracti128_si256(pp, 1), _mm256_extracti128_si256(nn, 1),
+                       _mm256_extracti128_si256(m1, 1), _mm256_extracti128_si256(d1, 1)));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out),
+                      _mm256_blendv_epi8(value, _mm256_set1_epi16(l.filtered), reject));
+}
+
+// One pixel's winner over its own costs c[0..nd) (StereoBM's rules), for the one left pixel whose
+// costs compute() corrects.
+std::int16_t winner(const Layout& l, const std::int16_t* c) {
+  int d = 0;
+  for (int k = 1; k < l.nd; ++k)
+    if (c[k] < c[d]) d = k;
+  const int best = c[d];
+  if (l.ratio > 0) {
+    const int thresh = best + best * l.ratio / 100;
+    for (int k = 0; k < l.nd; ++k)
+      if ((k < d - 1 || k > d + 1) && c[k] <= thresh) return l.filtered;
+  }
+  return subpixel(l, d, best, d + 1 < l.nd ? c[d + 1] : 0, d > 0 ? c[d - 1] : 0);
+}
+
 // Rows [y_begin, y_end) of both outputs (valid rows only; the caller fills the others).
+// Per row: the column sums slide down one row, the window's SAD slides along the row (all
+// disparities of one column at once) into 16-column tiles, which are transposed into one cost row
+// per disparity; the left and the right winners are then read from those rows, 16 pixels at a
+// time (winners16).
 __attribute__((target("avx2"))) void matchRows(const Layout& l, const std::uint8_t* lf,
                                                const std::uint8_t* rf, int y_begin, int y_end,
                                                LeftRightBlockMatcher::Stripe* st, cv::Mat* raw_left,
                                                cv::Mat* raw_right) {
   const int nd = l.nd, nv = nd / 16, r2 = l.r2;
   std::int16_t* vs = st->column_sums.data();
-  std::int16_t* cost = st->costs.data();
-  std::int16_t* m1 = st->right_state.data();  // right winner's cost
-  std::int16_t* s2 = m1 + l.state_len;        // best cost away from the winner and its neighbours
-  std::int16_t* pm = s2 + l.state_len;        // best cost seen, the last one excepted
-  std::int16_t* cl = pm + l.state_len;        // last cost seen
-  std::int16_t* pp = cl + l.state_len;        // cost at the winner's index + 1
-  std::int16_t* nn = pp + l.state_len;        // cost at the winner's index - 1
-  std::int16_t* d1 = nn + l.state_len;        // winner's index
-  const __m256i lane = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const __m256i ones = _mm256_set1_epi16(1);
+  std::int16_t* tile = st->costs.data();      // 16 columns x nd costs
+  std::int16_t* fixed = tile + 16 * nd;       // the corrected costs of column w - 1 - r2
+  std::int16_t* rows = st->cost_rows.data();  // nd rows of cost_stride columns
+  const std::size_t cs = static_cast<std::size_t>(l.cost_stride);
   auto lrow = [&](int y) { return lf + static_cast<std::size_t>(y) * l.stride + l.margin; };
   auto rrow = [&](int y) { return rf + static_cast<std::size_t>(y) * l.stride + l.margin; };
 
@@ -154,129 +294,84 @@ __attribute__((target("avx2"))) void matchRows(const Layout& l, const std::uint8
       }
     }
 
-    // Right-to-left winners start afresh on every row.
-    std::fill(m1, m1 + l.state_len, kInfinite);
-    std::fill(s2, s2 + l.state_len, kInfinite);
-    std::fill(pm, pm + l.state_len, kInfinite);
-    std::fill(cl, cl + l.state_len, kInfinite);
-    std::fill(pp, pp + 3 * l.state_len, std::int16_t{0});  // pp, nn, d1
-
-    std::int16_t* out_left = raw_left->ptr<std::int16_t>(y);
-    // The window's SAD at x_first, then slid along the row.
-    std::memset(cost, 0, static_cast<std::size_t>(nd) * sizeof(std::int16_t));
-    for (int x = l.x_first - r2; x <= l.x_first + r2; ++x) {
+    // The window's SAD at x_first, then slid along the row; every column's costs go to the tile
+    // of its 16 columns, and a full tile (or the last) into the cost rows.
+    std::int16_t* prev = tile + static_cast<std::size_t>((l.x_first + 15) & 15) * nd;
+    std::memset(prev, 0, static_cast<std::size_t>(nd) * sizeof(std::int16_t));
+    for (int x = l.x_first - r2; x < l.x_first + r2; ++x) {
       const std::int16_t* v = vs + static_cast<std::size_t>(x - l.xv0) * nd;
       for (int d = 0; d < nd; ++d)
-        cost[d] = static_cast<std::int16_t>(cost[d] + v[d]);
+        prev[d] = static_cast<std::int16_t>(prev[d] + v[d]);
     }
+    bool fix_pending = false;
     for (int x = l.x_first; x <= l.x_last; ++x) {
+      std::int16_t* cost = tile + static_cast<std::size_t>(x & 15) * nd;
+      const std::int16_t* v_in = vs + static_cast<std::size_t>(x + r2 - l.xv0) * nd;
       if (x > l.x_first) {
-        const std::int16_t* v_in = vs + static_cast<std::size_t>(x + r2 - l.xv0) * nd;
         const std::int16_t* v_out = vs + static_cast<std::size_t>(x - r2 - 1 - l.xv0) * nd;
         for (int j = 0; j < nv; ++j) {
-          __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cost + 16 * j));
+          __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(prev + 16 * j));
           c = _mm256_add_epi16(c,
                                _mm256_loadu_si256(reinterpret_cast<const __m256i*>(v_in + 16 * j)));
           c = _mm256_sub_epi16(
               c, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(v_out + 16 * j)));
           _mm256_storeu_si256(reinterpret_cast<__m256i*>(cost + 16 * j), c);
         }
-      }
-
-      // Left pixel x: the winner over its own costs (StereoBM's rules).
-      if (x >= l.left_min && x <= l.left_max) {
-        const std::int16_t* c = cost;
-        if (x == l.w - 1 - r2) {
-          // StereoBM sees the border value in column w - 1 of the unpadded pair, where the cost
-          // volume holds the padded pair's one-sided derivative: correct that column's terms.
-          std::int16_t* fixed = cost + nd;
-          std::copy(cost, cost + nd, fixed);
-          for (int yy = y - r2; yy <= y + r2; ++yy) {
-            const std::uint8_t* a = lrow(yy);
-            const std::uint8_t* b = rrow(yy);
-            const int lv = a[l.w - 1];
-            for (int d = 0; d < nd; ++d) {
-              const int xr = l.w - 1 - (l.k_max - d);
-              const int rv_padded = b[xr];
-              const int rv_plain = xr == l.w - 1 ? l.cap : rv_padded;
-              fixed[d] = static_cast<std::int16_t>(fixed[d] + std::abs(l.cap - rv_plain) -
-                                                   std::abs(lv - rv_padded));
-            }
-          }
-          c = fixed;
-        }
-        __m256i minv = _mm256_set1_epi16(kInfinite), idx = _mm256_setzero_si256();
+      } else {
         for (int j = 0; j < nv; ++j) {
-          const __m256i cv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c + 16 * j));
-          const __m256i better = _mm256_cmpgt_epi16(minv, cv);
-          minv = _mm256_min_epi16(minv, cv);
-          idx = _mm256_blendv_epi8(idx, _mm256_add_epi16(lane, _mm256_set1_epi16(16 * j)), better);
+          __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(prev + 16 * j));
+          c = _mm256_add_epi16(c,
+                               _mm256_loadu_si256(reinterpret_cast<const __m256i*>(v_in + 16 * j)));
+          _mm256_storeu_si256(reinterpret_cast<__m256i*>(cost + 16 * j), c);
         }
-        const int best = hmin16(minv);
-        const __m256i at_best = _mm256_cmpeq_epi16(minv, _mm256_set1_epi16(best));
-        const int d = hmin16(_mm256_blendv_epi8(_mm256_set1_epi16(kInfinite), idx, at_best));
-        bool unique = true;
-        if (l.ratio > 0) {
-          const int thresh = best + best * l.ratio / 100;
-          const __m256i t1 = _mm256_set1_epi16(static_cast<short>(thresh + 1));
-          const __m256i lo = _mm256_set1_epi16(static_cast<short>(d - 1));
-          const __m256i hi = _mm256_set1_epi16(static_cast<short>(d + 1));
-          for (int j = 0; j < nv && unique; ++j) {
-            const __m256i cv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c + 16 * j));
-            const __m256i dv = _mm256_add_epi16(lane, _mm256_set1_epi16(16 * j));
-            const __m256i far =
-                _mm256_or_si256(_mm256_cmpgt_epi16(lo, dv), _mm256_cmpgt_epi16(dv, hi));
-            const __m256i low = _mm256_cmpgt_epi16(t1, cv);
-            unique = _mm256_movemask_epi8(_mm256_and_si256(far, low)) == 0;
+      }
+      prev = cost;
+
+      if (x == l.w - 1 - r2 && x >= l.left_min) {
+        // StereoBM sees the border value in column w - 1 of the unpadded pair, where the cost
+        // volume holds the padded pair's one-sided derivative: that left pixel's costs corrected.
+        std::copy(cost, cost + nd, fixed);
+        for (int yy = y - r2; yy <= y + r2; ++yy) {
+          const std::uint8_t* a = lrow(yy);
+          const std::uint8_t* b = rrow(yy);
+          const int lv = a[l.w - 1];
+          for (int d = 0; d < nd; ++d) {
+            const int xr = l.w - 1 - (l.k_max - d);
+            const int rv_padded = b[xr];
+            const int rv_plain = xr == l.w - 1 ? l.cap : rv_padded;
+            fixed[d] = static_cast<std::int16_t>(fixed[d] + std::abs(l.cap - rv_plain) -
+                                                 std::abs(lv - rv_padded));
           }
         }
-        out_left[x] = unique ? subpixel(l, d, best, d + 1 < nd ? c[d + 1] : 0, d > 0 ? c[d - 1] : 0)
-                             : l.filtered;
+        fix_pending = true;
       }
 
-      // Right pixels x - k_max + d: this is their visit at index d (visited in decreasing d).
-      const int base = x - l.k_max + l.state_offset;
-      for (int j = 0; j < nv; ++j) {
-        const int i = base + 16 * j;
-        const __m256i dv = _mm256_add_epi16(lane, _mm256_set1_epi16(16 * j));
-        const __m256i c = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cost + 16 * j));
-        __m256i vm1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(m1 + i));
-        __m256i vs2 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s2 + i));
-        __m256i vpm = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pm + i));
-        const __m256i vcl = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cl + i));
-        __m256i vpp = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pp + i));
-        __m256i vnn = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(nn + i));
-        __m256i vd1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d1 + i));
-        // The winner so far was set at the previous visit (index d + 1): c is its neighbour.
-        const __m256i last_won = _mm256_cmpeq_epi16(vd1, _mm256_add_epi16(dv, ones));
-        const __m256i not_new = _mm256_cmpgt_epi16(c, vm1);  // ties go to the smaller index
-        const __m256i s_keep = _mm256_blendv_epi8(_mm256_min_epi16(vs2, c), vs2, last_won);
-        vs2 = _mm256_blendv_epi8(vpm, s_keep, not_new);
-        vpp = _mm256_blendv_epi8(vcl, vpp, not_new);
-        vnn = _mm256_blendv_epi8(vnn, c, last_won);
-        vm1 = _mm256_min_epi16(vm1, c);
-        vd1 = _mm256_blendv_epi8(dv, vd1, not_new);
-        vpm = _mm256_min_epi16(vpm, vcl);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(m1 + i), vm1);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(s2 + i), vs2);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(pm + i), vpm);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(cl + i), c);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(pp + i), vpp);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(nn + i), vnn);
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(d1 + i), vd1);
+      if ((x & 15) == 15 || x == l.x_last) {
+        const int base = x & ~15;
+        for (int j = 0; j < nv; ++j)
+          transpose16x16(tile + 16 * j, static_cast<std::size_t>(nd), rows + 16 * j * cs + base,
+                         cs);
       }
     }
 
-    // Right pixels r2 .. w - 1 have seen every index: their winners.
+    // Winners, 16 pixels at a time; a last partial block goes through a scratch row.
+    alignas(32) std::int16_t scratch[16];
+    std::int16_t* out_left = raw_left->ptr<std::int16_t>(y);
+    for (int x0 = l.left_min; x0 <= l.left_max; x0 += 16) {
+      const int n = std::min(16, l.left_max + 1 - x0);
+      std::int16_t* o = n == 16 ? out_left + x0 : scratch;
+      winners16(l, rows + x0, static_cast<std::ptrdiff_t>(cs), o);
+      if (n < 16) std::copy(scratch, scratch + n, out_left + x0);
+    }
+    if (fix_pending) out_left[l.w - 1 - r2] = winner(l, fixed);
+
+    // Right pixel xr at index d is left column xr + k_max - d; pixels r2 .. w - 1.
     std::int16_t* out_right = raw_right->ptr<std::int16_t>(y);
-    for (int xr = l.r2; xr < l.w; ++xr) {
-      const int i = xr + l.state_offset;
-      const int best = m1[i];
-      if (l.ratio > 0 && s2[i] <= best + best * l.ratio / 100) {
-        out_right[xr] = l.filtered;
-      } else {
-        out_right[xr] = subpixel(l, d1[i], best, pp[i], nn[i]);
-      }
+    for (int x0 = l.r2; x0 < l.w; x0 += 16) {
+      const int n = std::min(16, l.w - x0);
+      std::int16_t* o = n == 16 ? out_right + x0 : scratch;
+      winners16(l, rows + x0 + l.k_max, static_cast<std::ptrdiff_t>(cs) - 1, o);
+      if (n < 16) std::copy(scratch, scratch + n, out_right + x0);
     }
   }
 }
@@ -354,8 +449,8 @@ int LeftRightBlockMatcher::prepare(const cv::Mat& left, const cv::Mat& right,
   for (int s = 0; s < stripes; ++s) {
     Stripe& st = stripes_[static_cast<std::size_t>(s)];
     st.column_sums.resize(static_cast<std::size_t>(ncols) * l.nd + 16);
-    st.costs.resize(2 * static_cast<std::size_t>(l.nd) + 16);  // costs, corrected costs
-    st.right_state.resize(static_cast<std::size_t>(l.state_len) * 7);
+    st.costs.resize(17 * static_cast<std::size_t>(l.nd) + 16);  // the tile, corrected costs
+    st.cost_rows.resize(static_cast<std::size_t>(l.cost_stride) * l.nd + 16);
   }
   stripe_count_ = stripes;
   return stripes;

@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -96,6 +98,203 @@ std::string TextureValidationConfig::validate() const {
   return {};
 }
 
+namespace {
+
+// OpenCV's own ksize for a float GaussianBlur with ksize (0, 0).
+int gaussianTaps(double sigma) {
+  return cvRound(sigma * 4 * 2 + 1) | 1;
+}
+
+bool cpuHasAvx2Fma() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+
+// The texture energy as OpenCV 4.6 computes it on a CPU with AVX2 (its filter code is dispatched
+// there and uses FMA), step for step, so that every float is the same:
+//  - GaussianBlur (ksize >= 7: RowFilter, then SymmColumnFilter): along the row
+//    s = fma(x[i + k], kx[k], s) for k = 0..ksize-1 from s = 0; down the column
+//    s = c * ky[r], then s = fma(below_k + above_k, ky[r + k], s) for k = 1..r;
+//  - Laplacian, ksize 1 (Filter2D over the kernel's non-zero taps in row order):
+//    ((((up + left) + (-4) * centre) + right) + down), then |.|;
+//  - normalised boxFilter: running sums in double, along the row (first window summed left to
+//    right, then s += (in - out)), then down the columns (sum of the first ksize - 1 rows, then
+//    s0 = sum + in, out = (float)(s0 * (1 / ksize^2)), sum = s0 - out);
+// every border replicated. test_disparity_filters compares it with OpenCV's calls.
+__attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
+                                                          const TextureValidationConfig& config,
+                                                          DisparityFilterWorkspace* ws,
+                                                          cv::Mat* energy) {
+  const int w = left.cols, h = left.rows;
+  const int taps = gaussianTaps(config.log_sigma), r = taps / 2;
+  if (ws->texture_kernel.size() != static_cast<std::size_t>(taps) ||
+      ws->texture_kernel_sigma != config.log_sigma) {
+    const cv::Mat kernel = cv::getGaussianKernel(taps, config.log_sigma, CV_32F);
+    ws->texture_kernel.assign(kernel.ptr<float>(), kernel.ptr<float>() + taps);
+    ws->texture_kernel_sigma = config.log_sigma;
+  }
+  const float* kx = ws->texture_kernel.data();
+  const std::size_t area = static_cast<std::size_t>(w) * h;
+  ws->texture_rows.resize(area);
+  ws->texture_blurred.resize(area);
+  const int rw = config.window_size / 2;
+  const int padded = w + 2 * std::max(r, rw) + 8;
+  ws->texture_row.resize(static_cast<std::size_t>(padded));
+  ws->texture_sums.resize(area);
+  ws->texture_column.assign(static_cast<std::size_t>(w), 0.0);
+
+  // Gaussian along the rows.
+  float* e = ws->texture_row.data();
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* s = left.ptr<std::uint8_t>(y);
+    for (int x = 0; x < r; ++x) {
+      e[x] = s[0];
+      e[r + w + x] = s[w - 1];
+    }
+    for (int x = 0; x < w; ++x)
+      e[r + x] = s[x];
+    float* o = ws->texture_rows.data() + static_cast<std::size_t>(y) * w;
+    int x = 0;
+    for (; x + 8 <= w; x += 8) {
+      __m256 acc = _mm256_setzero_ps();
+      for (int k = 0; k < taps; ++k)
+        acc = _mm256_fmadd_ps(_mm256_loadu_ps(e + x + k), _mm256_set1_ps(kx[k]), acc);
+      _mm256_storeu_ps(o + x, acc);
+    }
+    for (; x < w; ++x) {
+      float acc = 0.0f;
+      for (int k = 0; k < taps; ++k)
+        acc = std::fma(e[x + k], kx[k], acc);
+      o[x] = acc;
+    }
+  }
+
+  // Gaussian down the columns (symmetric kernel: the two rows at +-k added first).
+  auto clampRow = [h](int y) { return std::min(std::max(y, 0), h - 1); };
+  for (int y = 0; y < h; ++y) {
+    const float* rows = ws->texture_rows.data();
+    const float* c = rows + static_cast<std::size_t>(y) * w;
+    float* o = ws->texture_blurred.data() + static_cast<std::size_t>(y) * w;
+    int x = 0;
+    for (; x + 8 <= w; x += 8) {
+      __m256 acc = _mm256_mul_ps(_mm256_loadu_ps(c + x), _mm256_set1_ps(kx[r]));
+      for (int k = 1; k <= r; ++k) {
+        const float* below = rows + static_cast<std::size_t>(clampRow(y + k)) * w;
+        const float* above = rows + static_cast<std::size_t>(clampRow(y - k)) * w;
+        acc = _mm256_fmadd_ps(_mm256_add_ps(_mm256_loadu_ps(below + x), _mm256_loadu_ps(above + x)),
+                              _mm256_set1_ps(kx[r + k]), acc);
+      }
+      _mm256_storeu_ps(o + x, acc);
+    }
+    for (; x < w; ++x) {
+      float acc = c[x] * kx[r];
+      for (int k = 1; k <= r; ++k) {
+        const float below = rows[static_cast<std::size_t>(clampRow(y + k)) * w + x];
+        const float above = rows[static_cast<std::size_t>(clampRow(y - k)) * w + x];
+        acc = std::fma(below + above, kx[r + k], acc);
+      }
+      o[x] = acc;
+    }
+  }
+
+  // |Laplacian| of each row, then its window sums along the row.
+  const __m256 minus4 = _mm256_set1_ps(-4.0f);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  float* a = ws->texture_row.data() + rw;  // |LoG| of one row, rw replicated columns each side
+  for (int y = 0; y < h; ++y) {
+    const float* blurred = ws->texture_blurred.data();
+    const float* up = blurred + static_cast<std::size_t>(clampRow(y - 1)) * w;
+    const float* c = blurred + static_cast<std::size_t>(y) * w;
+    const float* down = blurred + static_cast<std::size_t>(clampRow(y + 1)) * w;
+    auto laplacian = [&](int x) {
+      float s = up[x] + c[x > 0 ? x - 1 : 0];
+      s = s + -4.0f * c[x];
+      s = s + c[x < w - 1 ? x + 1 : w - 1];
+      s = s + down[x];
+      return std::fabs(s);
+    };
+    a[0] = laplacian(0);
+    int x = 1;
+    for (; x + 8 <= w - 1; x += 8) {
+      __m256 s = _mm256_add_ps(_mm256_loadu_ps(up + x), _mm256_loadu_ps(c + x - 1));
+      s = _mm256_fmadd_ps(_mm256_loadu_ps(c + x), minus4, s);  // exact product: same as add
+      s = _mm256_add_ps(s, _mm256_loadu_ps(c + x + 1));
+      s = _mm256_add_ps(s, _mm256_loadu_ps(down + x));
+      _mm256_storeu_ps(a + x, _mm256_andnot_ps(sign, s));
+    }
+    for (; x < w; ++x)
+      a[x] = laplacian(x);
+    for (int k = 1; k <= rw; ++k) {
+      a[-k] = a[0];
+      a[w - 1 + k] = a[w - 1];
+    }
+    double* sums = ws->texture_sums.data() + static_cast<std::size_t>(y) * w;
+    double s = 0.0;
+    for (int k = -rw; k <= rw; ++k)
+      s += static_cast<double>(a[k]);
+    sums[0] = s;
+    for (int xx = 1; xx < w; ++xx) {
+      s += static_cast<double>(a[xx + rw]) - static_cast<double>(a[xx - rw - 1]);
+      sums[xx] = s;
+    }
+  }
+
+  // Window sums down the columns, scaled to the mean.
+  energy->create(h, w, CV_32FC1);
+  const double scale = 1.0 / (static_cast<double>(config.window_size) * config.window_size);
+  const double* sums = ws->texture_sums.data();
+  double* column = ws->texture_column.data();
+  for (int k = -rw; k < rw; ++k) {
+    const double* in = sums + static_cast<std::size_t>(clampRow(k)) * w;
+    for (int x = 0; x < w; ++x)
+      column[x] += in[x];
+  }
+  const __m256d scale4 = _mm256_set1_pd(scale);
+  for (int y = 0; y < h; ++y) {
+    const double* in = sums + static_cast<std::size_t>(clampRow(y + rw)) * w;
+    const double* out = sums + static_cast<std::size_t>(clampRow(y - rw)) * w;
+    float* o = energy->ptr<float>(y);
+    int x = 0;
+    for (; x + 4 <= w; x += 4) {
+      const __m256d s0 = _mm256_add_pd(_mm256_loadu_pd(column + x), _mm256_loadu_pd(in + x));
+      _mm_storeu_ps(o + x, _mm256_cvtpd_ps(_mm256_mul_pd(s0, scale4)));
+      _mm256_storeu_pd(column + x, _mm256_sub_pd(s0, _mm256_loadu_pd(out + x)));
+    }
+    for (; x < w; ++x) {
+      const double s0 = column[x] + in[x];
+      o[x] = static_cast<float>(s0 * scale);
+      column[x] = s0 - out[x];
+    }
+  }
+}
+
+}  // namespace
+
+bool textureEnergy(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* energy,
+                   DisparityFilterWorkspace* workspace, bool opencv_only) {
+  if (energy == nullptr || left.empty() || left.type() != CV_8UC1 || left.dims != 2 ||
+      !config.validate().empty()) {
+    return false;
+  }
+  DisparityFilterWorkspace local;
+  DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
+  // Texture energy of the matching window: mean |LoG| of the left image (002, Sec. 2.2).
+  // OpenCV's Gaussian shrinks to one tap along a one-pixel dimension: left to its own calls.
+  if (!opencv_only && cpuHasAvx2Fma() && gaussianTaps(config.log_sigma) >= 7 && left.rows > 1 &&
+      left.cols > 1) {
+    textureEnergyOwn(left, config, &ws, energy);
+    return true;
+  }
+  left.convertTo(ws.grey_f, CV_32F);
+  cv::GaussianBlur(ws.grey_f, ws.blurred, cv::Size(), config.log_sigma, config.log_sigma,
+                   cv::BORDER_REPLICATE);
+  cv::Laplacian(ws.blurred, ws.log, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::absdiff(ws.log, cv::Scalar::all(0.0), ws.log);
+  cv::boxFilter(ws.log, *energy, CV_32F, cv::Size(config.window_size, config.window_size),
+                cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+  return true;
+}
+
 int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* disparity,
                      DisparityFilterWorkspace* workspace) {
   if (!isFloatImage(disparity) || left.empty() || left.type() != CV_8UC1 ||
@@ -104,15 +303,7 @@ int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config,
   }
   DisparityFilterWorkspace local;
   DisparityFilterWorkspace& ws = workspace != nullptr ? *workspace : local;
-
-  // Texture energy of the matching window: mean |LoG| of the left image (002, Sec. 2.2).
-  left.convertTo(ws.grey_f, CV_32F);
-  cv::GaussianBlur(ws.grey_f, ws.blurred, cv::Size(), config.log_sigma, config.log_sigma,
-                   cv::BORDER_REPLICATE);
-  cv::Laplacian(ws.blurred, ws.log, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
-  cv::absdiff(ws.log, cv::Scalar::all(0.0), ws.log);
-  cv::boxFilter(ws.log, ws.energy, CV_32F, cv::Size(config.window_size, config.window_size),
-                cv::Point(-1, -1), true, cv::BORDER_REPLICATE);
+  textureEnergy(left, config, &ws.energy, &ws);
 
   const float min_energy = static_cast<float>(config.min_energy);
   int removed = 0;
@@ -201,6 +392,58 @@ std::string LeftRightCheckConfig::validate() const {
   return {};
 }
 
+namespace {
+
+// The left-right check of one row, 8 pixels at a time (AVX2 gather of the right disparities), the
+// same float operations as the scalar loop below: x - d + 0.5 floored, |d - d_R| > tolerance.
+// Returns the pixels it invalidated; *done: how many columns it covered.
+__attribute__((target("avx2"))) int leftRightRowAvx2(float* left_row, const float* right_row,
+                                                     int cols, float tolerance,
+                                                     bool reject_if_right_invalid, int* done) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 largest = _mm256_set1_ps(std::numeric_limits<float>::max());
+  const __m256 half = _mm256_set1_ps(0.5f);
+  const __m256 tol = _mm256_set1_ps(tolerance);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  const __m256 right_invalid =
+      _mm256_castsi256_ps(_mm256_set1_epi32(reject_if_right_invalid ? -1 : 0));
+  __m256 xv = _mm256_setr_ps(0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f);
+  const __m256 eight = _mm256_set1_ps(8.0f);
+  int removed = 0, x = 0;
+  for (; x + 8 <= cols; x += 8, xv = _mm256_add_ps(xv, eight)) {
+    const __m256 d = _mm256_loadu_ps(left_row + x);
+    const __m256 valid =
+        _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ), _mm256_cmp_ps(d, largest, _CMP_LE_OQ));
+    if (_mm256_movemask_ps(valid) == 0) continue;
+    const __m256 xf = _mm256_floor_ps(_mm256_add_ps(_mm256_sub_ps(xv, d), half));
+    const __m256 inside = _mm256_and_ps(valid, _mm256_cmp_ps(xf, zero, _CMP_GE_OQ));
+    // Lanes outside (or invalid) read column 0, and their result is not used.
+    const __m256i xr = _mm256_cvttps_epi32(_mm256_and_ps(xf, inside));
+    const __m256 dr = _mm256_i32gather_ps(right_row, xr, 4);
+    const __m256 right_valid =
+        _mm256_and_ps(_mm256_cmp_ps(dr, zero, _CMP_GT_OQ), _mm256_cmp_ps(dr, largest, _CMP_LE_OQ));
+    const __m256 differs =
+        _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(d, dr)), tol, _CMP_GT_OQ);
+    const __m256 reject_inside = _mm256_blendv_ps(right_invalid, differs, right_valid);
+    const __m256 keep = _mm256_andnot_ps(reject_inside, inside);
+    const __m256 reject = _mm256_andnot_ps(keep, valid);
+    const int mask = _mm256_movemask_ps(reject);
+    if (mask != 0) {
+      _mm256_storeu_ps(left_row + x, _mm256_blendv_ps(d, zero, reject));
+      removed += __builtin_popcount(static_cast<unsigned>(mask));
+    }
+  }
+  *done = x;
+  return removed;
+}
+
+bool cpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
+}  // namespace
+
 int filterLeftRightInconsistent(const cv::Mat& right_disparity, const LeftRightCheckConfig& config,
                                 cv::Mat* disparity) {
   if (!isFloatImage(disparity) || !isFloatImage(&right_disparity) ||
@@ -210,10 +453,16 @@ int filterLeftRightInconsistent(const cv::Mat& right_disparity, const LeftRightC
   const float tolerance = static_cast<float>(config.max_difference);
   const int cols = disparity->cols;
   int removed = 0;
+  const bool avx2 = cpuHasAvx2();
   for (int y = 0; y < disparity->rows; ++y) {
     float* left_row = disparity->ptr<float>(y);
     const float* right_row = right_disparity.ptr<float>(y);
-    for (int x = 0; x < cols; ++x) {
+    int x = 0;
+    if (avx2) {
+      removed += leftRightRowAvx2(left_row, right_row, cols, tolerance,
+                                  config.reject_if_right_invalid, &x);
+    }
+    for (; x < cols; ++x) {
       const float d = left_row[x];
       if (!isValidDisparity(d)) continue;
       // d is finite and > 0, so x - d + 0.5 <= x + 0.5 fits an int once it is >= 0 (a huge d

@@ -2,6 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <emmintrin.h>
+
 #include <algorithm>
 #include <chrono>
 #include <exception>
@@ -35,6 +37,40 @@ void replicateLeftColumns(int pad, cv::Mat* m) {
     T* row = m->ptr<T>(y);
     std::fill(row, row + pad, row[pad]);
   }
+}
+
+// The matcher's CV_16S output (1/16 px) as CV_32F pixels, everything <= 0 as 0, in one pass;
+// returns the number of valid pixels. Bit for bit raw.convertTo(CV_32F, 1 / 16) followed by
+// threshold(THRESH_TOZERO) and countNonZero (value / 16 is exact in float).
+int convertRaw(const cv::Mat& raw, cv::Mat* disparity) {
+  CV_Assert(raw.type() == CV_16SC1);
+  disparity->create(raw.size(), CV_32FC1);
+  const float scale = 1.0f / cv::StereoMatcher::DISP_SCALE;
+  const __m128i zero = _mm_setzero_si128();
+  const __m128 scale4 = _mm_set1_ps(scale);
+  int valid = 0;
+  for (int y = 0; y < raw.rows; ++y) {
+    const std::int16_t* r = raw.ptr<std::int16_t>(y);
+    float* d = disparity->ptr<float>(y);
+    int x = 0;
+    __m128i count = zero;  // per lane, at most cols / 8 per row
+    for (; x + 8 <= raw.cols && x < 8 * 32767; x += 8) {
+      const __m128i v =
+          _mm_max_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(r + x)), zero);
+      _mm_storeu_ps(d + x, _mm_mul_ps(_mm_cvtepi32_ps(_mm_unpacklo_epi16(v, zero)), scale4));
+      _mm_storeu_ps(d + x + 4, _mm_mul_ps(_mm_cvtepi32_ps(_mm_unpackhi_epi16(v, zero)), scale4));
+      count = _mm_sub_epi16(count, _mm_cmpgt_epi16(v, zero));
+    }
+    alignas(16) std::int32_t sums[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(sums), _mm_madd_epi16(count, _mm_set1_epi16(1)));
+    valid += sums[0] + sums[1] + sums[2] + sums[3];
+    for (; x < raw.cols; ++x) {
+      const int v = std::max<int>(r[x], 0);
+      d[x] = static_cast<float>(v) * scale;
+      valid += v > 0 ? 1 : 0;
+    }
+  }
+  return valid;
 }
 
 }  // namespace
@@ -279,8 +315,7 @@ bool DisparityPipeline::toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat
 // OpenCV matchers return fixed point disparities (1/16 px); anything <= 0 (incl. their
 // "no match" value (min_disparity - 1) * 16) becomes kInvalidDisparity.
 void DisparityPipeline::convertMatcherOutput(const cv::Mat& raw, cv::Mat* disparity) const {
-  raw.convertTo(*disparity, CV_32F, 1.0 / cv::StereoMatcher::DISP_SCALE);
-  cv::threshold(*disparity, *disparity, 0.0, 0.0, cv::THRESH_TOZERO);
+  convertRaw(raw, disparity);
 }
 
 // Right-to-left disparities from the mirrored pair. Mirroring turns "right pixel x_r matches left
@@ -489,8 +524,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     } else {
       left_matcher_->compute(*left_grey, *right_grey, raw_);
     }
-    convertMatcherOutput(raw_, &disparity);
-    int valid = cv::countNonZero(disparity);
+    int valid = convertRaw(raw_, &disparity);
     DisparityStepStats& match = st.step(DisparityStep::kMatching);
     match.ran = true;
     match.valid_before = st.pixels;
@@ -553,11 +587,10 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
       if (one_volume) {
         const Clock::time_point t0 = Clock::now();
-        convertMatcherOutput(raw_right_, &right_disparity_);
+        rm.valid_after = convertRaw(raw_right_, &right_disparity_);
         right_ran_ = true;
         rm.ran = true;
         rm.valid_before = 0;
-        rm.valid_after = cv::countNonZero(right_disparity_);
         rm.ms = msSince(t0);
       } else if (parallel) {
         task_.wait();

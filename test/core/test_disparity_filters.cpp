@@ -133,6 +133,49 @@ TEST(TextureValidation, BadInputReturnsMinusOneAndLeavesDisparity) {
   EXPECT_NE(energy.validate().find("min_energy"), std::string::npos);
 }
 
+// The texture energy of our own code (AVX2 + FMA CPUs, Gaussians of 7 taps or more) must be
+// OpenCV's GaussianBlur + Laplacian + boxFilter bit for bit, so that the texture test keeps every
+// decision (issue 18). Sizes (odd, narrower than a vector, one row / column), sigmas on both sides
+// of the 7-tap switch, window sizes; textured, blurred, flat and saturated images.
+TEST(TextureValidation, EnergyIsOpenCvsBitForBit) {
+  cv::RNG rng(18);
+  DisparityFilterWorkspace ws, opencv_ws;
+  int compared = 0;
+  for (int i = 0; i < 80; ++i) {
+    const int rows = i < 2 ? 1 + i : 1 + rng.uniform(0, 90);
+    const int cols = i == 2 || i == 3 ? i - 1 : 1 + rng.uniform(0, 170);
+    cv::Mat left(rows, cols, CV_8UC1);
+    rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+    if (i % 3 == 1) cv::GaussianBlur(left, left, cv::Size(), 2.0);
+    if (i % 7 == 2) left.rowRange(0, rows / 2).setTo(i % 2 == 0 ? 0 : 255);
+    TextureValidationConfig config;
+    config.log_sigma = i < 10 ? 1.0 : rng.uniform(0.3, 4.0);
+    config.window_size = i < 10 ? 9 : 1 + 2 * rng.uniform(0, 10);
+    ASSERT_EQ(config.validate(), "");
+    cv::Mat ours, opencv;
+    ASSERT_TRUE(textureEnergy(left, config, &ours, &ws));
+    ASSERT_TRUE(textureEnergy(left, config, &opencv, &opencv_ws, true));
+    ASSERT_EQ(ours.type(), CV_32FC1);
+    EXPECT_TRUE(identical(ours, opencv))
+        << "case " << i << ": " << cols << "x" << rows << ", sigma " << config.log_sigma
+        << ", window " << config.window_size;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 80);
+  // The frame size of the pipeline, twice through the same workspace: no reallocation.
+  const cv::Mat frame = randomTexture(480, 640, 5);
+  cv::Mat ours, opencv;
+  const TextureValidationConfig config;
+  ASSERT_TRUE(textureEnergy(frame, config, &ours, &ws));
+  const void* blurred = ws.texture_blurred.data();
+  ASSERT_TRUE(textureEnergy(frame, config, &ours, &ws));
+  EXPECT_EQ(ws.texture_blurred.data(), blurred);
+  ASSERT_TRUE(textureEnergy(frame, config, &opencv, nullptr, true));
+  EXPECT_TRUE(identical(ours, opencv));
+  EXPECT_FALSE(textureEnergy(cv::Mat(), config, &ours));
+  EXPECT_FALSE(textureEnergy(cv::Mat(5, 5, CV_8UC3), config, &ours));
+}
+
 // ------------------------------------------------------------------------------------------------
 // Cost volume 1 x 4 pixels x 8 disparities (min_disparity 2 -> slice k is disparity k + 2).
 cv::Mat costVolume(int cols, int num_disp, float fill) {
@@ -249,6 +292,53 @@ TEST(LeftRightCheck, ToleranceRightInvalidAndOutsideMatches) {
   EXPECT_EQ(lenient.at<float>(0, 61), 11.5f);
   EXPECT_EQ(lenient.at<float>(0, 40), 10.0f);
   EXPECT_EQ(lenient.at<float>(0, 5), kInvalidDisparity);
+}
+
+// The check runs 8 pixels at a time on AVX2 CPUs: same result as the plain rule on random rows
+// (odd widths, both tolerances, invalid / NaN / inf / huge / negative values on both sides).
+TEST(LeftRightCheck, MatchesThePlainRuleOnRandomImages) {
+  cv::RNG rng(42);
+  const float specials[] = {0.0f, -3.0f, kNaN, kInf, 1e30f, 1e-30f, 0.5f};
+  for (int i = 0; i < 60; ++i) {
+    const int rows = 1 + rng.uniform(0, 20), cols = 1 + rng.uniform(0, 90);
+    cv::Mat left(rows, cols, CV_32FC1), right(rows, cols, CV_32FC1);
+    for (cv::Mat* m : {&left, &right}) {
+      for (int y = 0; y < rows; ++y) {
+        for (int x = 0; x < cols; ++x) {
+          m->at<float>(y, x) = rng.uniform(0, 6) == 0
+                                   ? specials[rng.uniform(0, 7)]
+                                   : static_cast<float>(rng.uniform(0, 640)) / 16;
+        }
+      }
+    }
+    LeftRightCheckConfig config;
+    config.max_difference = i % 3 == 0 ? 0.0 : i % 3 == 1 ? 1.0 : 2.5;
+    config.reject_if_right_invalid = i % 2 == 0;
+    cv::Mat expected = left.clone();
+    int expected_removed = 0;
+    for (int y = 0; y < rows; ++y) {
+      for (int x = 0; x < cols; ++x) {
+        const float d = expected.at<float>(y, x);
+        if (!isValidDisparity(d)) continue;
+        const float xf = std::floor(static_cast<float>(x) - d + 0.5f);
+        bool reject = true;
+        if (xf >= 0.0f) {
+          const float dr = right.at<float>(y, static_cast<int>(xf));
+          reject = isValidDisparity(dr)
+                       ? std::fabs(d - dr) > static_cast<float>(config.max_difference)
+                       : config.reject_if_right_invalid;
+        }
+        if (reject) {
+          expected.at<float>(y, x) = kInvalidDisparity;
+          ++expected_removed;
+        }
+      }
+    }
+    cv::Mat actual = left.clone();
+    EXPECT_EQ(filterLeftRightInconsistent(right, config, &actual), expected_removed)
+        << "case " << i;
+    EXPECT_TRUE(identical(actual, expected)) << "case " << i;
+  }
 }
 
 TEST(LeftRightCheck, BadInput) {

@@ -61,8 +61,8 @@ class LeftRightBlockMatcher {
 
   struct Stripe {
     std::vector<std::int16_t> column_sums;  ///< per column X, per disparity: SAD over the rows
-    std::vector<std::int16_t> costs;        ///< the window's SAD at the current X
-    std::vector<std::int16_t> right_state;  ///< running right-to-left winner per right pixel
+    std::vector<std::int16_t> costs;        ///< the window's SAD of 16 columns X (a tile)
+    std::vector<std::int16_t> cost_rows;    ///< one row's SADs, per disparity: one row of X
   };
 
  private:

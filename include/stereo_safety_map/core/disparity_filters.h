@@ -33,12 +33,20 @@ inline bool isValidDisparity(float d) {
 /// Buffers reused by the filters between calls. Opaque to callers: keep one per thread and pass
 /// it to every call.
 struct DisparityFilterWorkspace {
-  cv::Mat grey_f;                  ///< texture: left image as float
-  cv::Mat blurred;                 ///< texture: Gaussian-smoothed
-  cv::Mat log;                     ///< texture: |Laplacian of Gaussian|
-  cv::Mat energy;                  ///< texture: window mean of |LoG|
-  cv::Mat padded;                  ///< neighbour consistency: input copy with an invalid border
-  std::vector<float> valid_count;  ///< neighbour consistency: per-column counts of one row
+  cv::Mat grey_f;                      ///< texture (OpenCV path): left image as float
+  cv::Mat blurred;                     ///< texture (OpenCV path): Gaussian-smoothed
+  cv::Mat log;                         ///< texture (OpenCV path): |Laplacian of Gaussian|
+  cv::Mat energy;                      ///< texture: window mean of |LoG|
+  std::vector<float> texture_kernel;   ///< texture (own path): the Gaussian taps of
+  double texture_kernel_sigma = 0.0;   ///< this sigma
+  std::vector<float> texture_row;      ///< texture (own path): one row, borders replicated
+  std::vector<float> texture_rows;     ///< texture (own path): Gaussian along rows
+  std::vector<float> texture_blurred;  ///< texture (own path): Gaussian-smoothed
+  std::vector<float> texture_log;      ///< texture (own path): |LoG|, borders replicated
+  std::vector<double> texture_sums;    ///< texture (own path): window sums along rows
+  std::vector<double> texture_column;  ///< texture (own path): running column sums
+  cv::Mat padded;                      ///< neighbour consistency: input copy with an invalid border
+  std::vector<float> valid_count;      ///< neighbour consistency: per-column counts of one row
   std::vector<float> agree_count;
   cv::Mat surface;  ///< spike removal: input copy with an invalid border, < 0 once labelled
   std::vector<std::int32_t> region;  ///< spike removal: BFS queue = pixels of the current surface
@@ -69,8 +77,20 @@ struct TextureValidationConfig {
 
 /// Invalidates disparities whose left-image window has too little texture. `left` is the
 /// rectified left image, CV_8UC1, same size as `disparity`.
+/// The energy is OpenCV's float GaussianBlur, Laplacian (ksize 1) and normalised boxFilter, all
+/// with BORDER_REPLICATE. On a CPU with AVX2 and FMA, for a Gaussian of 7 taps or more (log_sigma
+/// >= 0.5625) and an image of at least 2 x 2 pixels, it is computed by our own code into the
+/// workspace (no allocation once warmed up),
+/// with OpenCV's arithmetic step for step, so bit for bit the same (test_disparity_filters checks
+/// it against OpenCV); otherwise by OpenCV's calls (36 allocations per call).
 int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* disparity,
                      DisparityFilterWorkspace* workspace = nullptr);
+
+/// The texture energy of filterLowTexture() (window mean of |LoG|, CV_32FC1) into *energy; for
+/// tests and tools. `opencv_only`: OpenCV's calls even where our own path applies. False for
+/// unusable input.
+bool textureEnergy(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* energy,
+                   DisparityFilterWorkspace* workspace = nullptr, bool opencv_only = false);
 
 // ------------------------------------------------------------------------------------------------
 /// "Quality of match" test (002, Sec. 2.2): reject matches whose best score does not clearly stand
