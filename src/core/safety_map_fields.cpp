@@ -289,14 +289,14 @@ ParamFieldList<M> makeMapperFields() {
           "around it) stays Non-ground until free space is observed there (its occupied voxels "
           "emptied by passing rays) (ours; false = 000, which recomputes the map from the "
           "grid).");
-  l.add("obstacle_memory_clear_lop", &M::obstacle_memory_clear_lop)
-      .closed(-32768, 32766)
-      .rangeText("[lop_min, occ_threshold - 1]")
+  l.add("obstacle_memory_clear_margin", &M::obstacle_memory_clear_margin)
+      .closed(1, 65535)
+      .rangeText("[1, occ_threshold - lop_min]")
       .doc(
           "a remembered obstacle cell is forgotten once every voxel of its band has a log-odds at "
-          "or below this: the passing rays' free-space decrements outweigh the hits (ours; "
-          "occ_threshold - 1 = as soon as no voxel is occupied, which rays grazing a sparse face "
-          "bring about).");
+          "or below occ_threshold minus this: 1 = as soon as none is occupied; occ_threshold = "
+          "only when passing rays took the band back to the prior, which also keeps a removed "
+          "obstacle for many frames (ours).");
   l.add("obstacle_memory_max_range", &M::obstacle_memory_max_range)
       .closed(0, 1000)
       .unit("m")

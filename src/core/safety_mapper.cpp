@@ -73,9 +73,10 @@ std::string SafetyMapperConfig::validate() const {
       obstacle_memory_max_range > 1000.0) {
     return "obstacle_memory_max_range must be in [0, 1000] m (0 = any range)";
   }
-  if (obstacle_memory_clear_lop < grid.lop_min || obstacle_memory_clear_lop >= grid.occ_threshold) {
-    return "obstacle_memory_clear_lop must be in [grid.lop_min, grid.occ_threshold - 1] = [" +
-           std::to_string(grid.lop_min) + ", " + std::to_string(grid.occ_threshold - 1) + "]";
+  if (obstacle_memory_clear_margin < 1 ||
+      obstacle_memory_clear_margin > grid.occ_threshold - grid.lop_min) {
+    return "obstacle_memory_clear_margin must be in [1, grid.occ_threshold - grid.lop_min] = [1, " +
+           std::to_string(grid.occ_threshold - grid.lop_min) + "]";
   }
   if (!std::isfinite(max_cell_age) || max_cell_age < 0.0 || max_cell_age > 86400.0) {
     return "max_cell_age must be in [0, 86400] s (0 = off)";
@@ -362,6 +363,7 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   };
   SafetyMap& m = map_;
   const double max_range2 = config_.obstacle_memory_max_range * config_.obstacle_memory_max_range;
+  const int clear_lop = grid_.config().occ_threshold - config_.obstacle_memory_clear_margin;
   // Cells that hold an obstacle now: non-traversable columns and small obstacles' tops.
   for (int v = m.min_v; v < m.min_v + m.height; ++v) {
     for (int u = m.min_u; u < m.min_u + m.width; ++u) {
@@ -391,8 +393,8 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
     }
   }
   // Remembered cells: forgotten once free space was observed there (every voxel of the band at
-  // or below obstacle_memory_clear_lop) or out of the window; otherwise Non-ground whatever the
-  // labelling says.
+  // or below occ_threshold - obstacle_memory_clear_margin) or out of the window; otherwise
+  // Non-ground whatever the labelling says.
   memory_drop_.clear();
   for (const auto& [k, mark] : obstacle_memory_) {
     const int u = static_cast<int>(k >> 32);
@@ -403,7 +405,7 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
     }
     bool held = false;
     for (std::int32_t w = mark.lo; w <= mark.hi && !held; ++w)
-      held = grid_.logOdds(VoxelIndex{u, v, w}) > config_.obstacle_memory_clear_lop;
+      held = grid_.logOdds(VoxelIndex{u, v, w}) > clear_lop;
     if (!held) {
       memory_drop_.push_back(k);
       continue;

@@ -929,27 +929,28 @@ TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
             g.setLogOdds(VoxelIndex{u, v, w}, lop);
     };
     if (memory) {
-      // Rays grazing the box took its voxels below occ_t but not to free space: still
-      // remembered with obstacle_memory_clear_lop 0; forgotten with occ_t - 1 (the rule before).
-      setBand(g.config().occ_threshold / 2);
-      EXPECT_EQ(relabel(0.05), L::kNonGround) << ascii(m->safetyMap());
-      SafetyMapperConfig eager = c;
-      eager.obstacle_memory_clear_lop = eager.grid.occ_threshold - 1;
-      const auto e = run(frames, eager);
-      SafetyMapperConfig r = eager;
+      // Rays grazing the box took its voxels below occ_t but not back to the prior: forgotten
+      // with the default margin (1), still remembered with obstacle_memory_clear_margin occ_t.
+      SafetyMapperConfig strict = c;
+      strict.obstacle_memory_clear_margin = strict.grid.occ_threshold;
+      const auto e = run(frames, strict);
+      SafetyMapperConfig r = strict;
       r.height_map.robot_height = 0.05;
       EXPECT_EQ(e->reconfigure(r), "");
-      e->computeSafetyMap(robot);
-      EXPECT_EQ(labelAt(e->safetyMap(), 2.0, 0.0), L::kNonGround) << ascii(e->safetyMap());
       VoxelGrid& ge = e->grid();
       for (int w = lo.w; w <= hi.w; ++w)
         for (int v = lo.v; v <= hi.v; ++v)
           for (int u = lo.u; u <= hi.u; ++u)
             ge.setLogOdds(VoxelIndex{u, v, w}, ge.config().occ_threshold / 2);
       e->computeSafetyMap(robot);
-      EXPECT_EQ(labelAt(e->safetyMap(), 2.0, 0.0), L::kLevel) << ascii(e->safetyMap());
-      eager.obstacle_memory_clear_lop = eager.grid.occ_threshold;
-      EXPECT_NE(eager.validate(), "");
+      EXPECT_EQ(labelAt(e->safetyMap(), 2.0, 0.0), L::kNonGround) << ascii(e->safetyMap());
+      setBand(g.config().occ_threshold / 2);
+      EXPECT_EQ(relabel(0.05), L::kLevel) << ascii(m->safetyMap());
+      EXPECT_EQ(m->cellsRemembered(), 0u);
+      strict.obstacle_memory_clear_margin = strict.grid.occ_threshold - strict.grid.lop_min + 1;
+      EXPECT_NE(strict.validate(), "");
+      strict.obstacle_memory_clear_margin = 0;
+      EXPECT_NE(strict.validate(), "");
     }
     // Free space observed through the box's columns: their upper voxels emptied.
     setBand(-10);

@@ -75,13 +75,13 @@ struct SafetyMapperConfig {
   bool obstacle_memory = true;
 
   /// What "free space observed" means to obstacle_memory (ours): a remembered cell is forgotten
-  /// once every voxel of its band has a log-odds at or below this, i.e. the passing rays'
-  /// decrements (000 Sec. IV) have outweighed the hits. 0 (default): more free-space evidence
-  /// than the LOP the hits built up above the prior. grid.occ_threshold - 1: forgotten as soon as
-  /// no voxel of the band is occupied any more, which grazing rays through a sparse face (a
-  /// wall seen at a shallow angle, a table top's edge) bring about without the obstacle having
-  /// moved. Range [grid.lop_min, grid.occ_threshold - 1].
-  int obstacle_memory_clear_lop = 0;
+  /// once every voxel of its band has a log-odds at or below grid.occ_threshold minus this
+  /// margin. 1 (default): as soon as no voxel of the band is occupied any more. occ_threshold:
+  /// only when the passing rays' decrements (000 Sec. IV) have taken the band back to the prior
+  /// (0). That keeps a sparse face whose voxels grazing rays have thinned (a wall seen at a
+  /// shallow angle), but it also keeps a removed obstacle for many frames: with decr 1 a
+  /// well-seen voxel needs hundreds of passing rays. Range [1, occ_threshold - lop_min].
+  int obstacle_memory_clear_margin = 1;
 
   /// obstacle_memory takes a column only while it lies within this horizontal distance of the
   /// robot [m] (ours; 0 = at any range). Stereo's depth error grows with the square of the range
