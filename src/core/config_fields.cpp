@@ -253,6 +253,17 @@ ParamFieldList<O> makeObstacleFields() {
       .unit("deg")
       .doc("theta_T: the line joining a compatible pair is steeper than this (003 Def. 1).");
 
+  l.section("Stereo noise margin (ours, 001 Sec. 4.1)");
+  l.add("noise_sigmas", &O::noise_sigmas)
+      .closed(0, 10)
+      .doc(
+          "k: Definition 1 must still hold with both points moved k sigma of their stereo range "
+          "error along their rays, the least steep way; 0 = off (003's constants; ours).");
+  l.add("disparity_sigma", &O::disparity_sigma)
+      .openClosed(0, 10)
+      .unit("px")
+      .doc("sigma_d of the noise margin: the disparity error's standard deviation (001 Sec. 4.1).");
+
   l.section("Search (003 Sec. 2, 4.1)");
   l.add("exhaustive_search", &O::exhaustive_search)
       .doc(

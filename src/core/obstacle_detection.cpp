@@ -77,6 +77,10 @@ std::string ObstacleDetectionConfig::validate() const {
   } else if (!finite(slope_threshold_deg) || slope_threshold_deg <= 0.0 ||
              slope_threshold_deg >= 90.0) {
     err << "slope_threshold_deg (theta_T) must be in (0, 90) deg, got " << slope_threshold_deg;
+  } else if (!finite(noise_sigmas) || noise_sigmas < 0.0 || noise_sigmas > 10.0) {
+    err << "noise_sigmas must be in [0, 10] (0 = off), got " << noise_sigmas;
+  } else if (!finite(disparity_sigma) || disparity_sigma <= 0.0 || disparity_sigma > 10.0) {
+    err << "disparity_sigma must be in (0, 10] px, got " << disparity_sigma;
   } else if (!finite(sample_spacing) || sample_spacing < 0.0) {
     err << "sample_spacing must be >= 0 m (0 = every pixel), got " << sample_spacing;
   } else if (max_candidates_per_pixel < 0) {
@@ -151,6 +155,31 @@ double estimateFocalLength(const cv::Mat& range_image) {
   return std::isfinite(f) && f > 0.0 ? f : 0.0;
 }
 
+void raisedObstaclePoints(const ObstacleDetectionResult& result, const cv::Mat& range_image,
+                          const Eigen::Isometry3f& T_fixed_camera,
+                          std::vector<Eigen::Vector3f>* points,
+                          std::vector<std::uint32_t>* labels) {
+  points->clear();
+  if (labels != nullptr) labels->clear();
+  if (result.mask.empty() || range_image.type() != CV_32FC3 ||
+      range_image.size() != result.mask.size()) {
+    return;
+  }
+  const bool with_labels = !result.labels.empty() && result.labels.size() == result.mask.size();
+  for (int r = 0; r < result.mask.rows; ++r) {
+    const std::uint8_t* m = result.mask.ptr<std::uint8_t>(r);
+    const cv::Vec3f* p = range_image.ptr<cv::Vec3f>(r);
+    const std::int32_t* l = with_labels ? result.labels.ptr<std::int32_t>(r) : nullptr;
+    for (int c = 0; c < result.mask.cols; ++c) {
+      if (m[c] != ObstacleDetectionResult::kRaised) continue;
+      points->push_back(T_fixed_camera * Eigen::Vector3f(p[c][0], p[c][1], p[c][2]));
+      if (labels != nullptr) {
+        labels->push_back(static_cast<std::uint32_t>(l != nullptr ? std::max(0, l[c]) : 0));
+      }
+    }
+  }
+}
+
 ObstacleDetector::ObstacleDetector(const ObstacleDetectionConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument("ObstacleDetectionConfig: " + err);
@@ -172,19 +201,19 @@ bool ObstacleDetector::compatible(const Eigen::Vector3f& a, const Eigen::Vector3
 
 bool ObstacleDetector::detect(const cv::Mat& range_image, double focal_length,
                               const Eigen::Isometry3f& T_fixed_camera,
-                              ObstacleDetectionResult* result) {
-  return run(range_image, focal_length, T_fixed_camera, false, result);
+                              ObstacleDetectionResult* result, double baseline) {
+  return run(range_image, focal_length, T_fixed_camera, false, baseline, result);
 }
 
 bool ObstacleDetector::detectColumnwise(const cv::Mat& range_image, double focal_length,
                                         const Eigen::Isometry3f& T_fixed_camera,
-                                        ObstacleDetectionResult* result) {
-  return run(range_image, focal_length, T_fixed_camera, true, result);
+                                        ObstacleDetectionResult* result, double baseline) {
+  return run(range_image, focal_length, T_fixed_camera, true, baseline, result);
 }
 
 bool ObstacleDetector::run(const cv::Mat& range_image, double focal_length,
                            const Eigen::Isometry3f& T_fixed_camera, bool columnwise,
-                           ObstacleDetectionResult* result) {
+                           double baseline, ObstacleDetectionResult* result) {
   if (result == nullptr) return false;
   result->obstacles.clear();
   result->num_accepted = 0;
@@ -207,6 +236,12 @@ bool ObstacleDetector::run(const cv::Mat& range_image, double focal_length,
       !(R.transpose() * R).isApprox(Eigen::Matrix3f::Identity(), 1e-3f) || R.determinant() < 0.0f) {
     return fail("T_fixed_camera must be a finite rigid transform");
   }
+  if (!std::isfinite(baseline) || baseline < 0.0) return fail("baseline must be finite and >= 0");
+  // The noise margin's scale k sigma_d / (f b) (001 Sec. 4.1), 0 when off or b is unknown.
+  noise_scale_ = config_.noise_sigmas > 0.0 && baseline > 0.0
+                     ? static_cast<float>(config_.noise_sigmas * config_.disparity_sigma /
+                                          (focal_length * baseline))
+                     : 0.0f;
 
   result->valid_points = prepare(range_image, T_fixed_camera);
   std::fill(marks_.begin(), marks_.end(), std::uint8_t{0});
@@ -243,6 +278,8 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
     y_.resize(n);
     z_.resize(n);
     depth_.resize(n);
+    ez_.resize(n);
+    eh_.resize(n);
     marks_.resize(n);
     steep_.resize(n);
     labels_.resize(n);
@@ -300,6 +337,15 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
         zo[c] = fz;
         dep[c] = Z;
         ++count;
+        if (noise_scale_ > 0.0f) {
+          // k sigma along the ray: |P| sigma_Z / Z = |P| Z sigma_d / (f b) (001 Sec. 4.1), split
+          // into its part along the fixed frame's z (the ray's rise, fz - t2) and across it.
+          const float e = Z * noise_scale_;
+          const float up = fz - t2;
+          const float across2 = std::max(0.0f, X * X + Y * Y + Z * Z - up * up);
+          ez_[base + c] = std::fabs(up) * e;
+          eh_[base + c] = std::sqrt(across2) * e;
+        }
         const float inv_z = 1.0f / Z;
         const float rx = X * inv_z, ry = Y * inv_z;
         bx0 = std::min(bx0, fx);
@@ -548,7 +594,9 @@ void ObstacleDetector::searchAllPairs(float f) {
                 if (!(dz2 > ht2 && dz2 < hmax2)) continue;  // also skips missing points
                 const float dx = x_[iq] - xp, dy = y_[iq] - yp;
                 const float h2 = dx * dx + dy * dy;
-                if (dz2 > tan2 * h2) linkPair(ip, iq, dz, h2, label);
+                if (dz2 > tan2 * h2 && clearOfNoise(ip, iq, dz, h2)) {
+                  linkPair(ip, iq, dz, h2, label);
+                }
               }
             }
           }
@@ -596,7 +644,7 @@ bool ObstacleDetector::findPartner(const std::vector<Candidate>& tiles, int* hin
         if (kBelow ? !(dz < -ht && dz > -h_max) : !(dz > ht && dz < h_max)) continue;
         const float dx = x_[iq] - xp, dy = y_[iq] - yp;
         const float h2 = dx * dx + dy * dy;
-        if (dz * dz > tan2 * h2) {
+        if (dz * dz > tan2 * h2 && clearOfNoise(ip, iq, dz, h2)) {
           pairs_tested_ += tested;
           linkPair(ip, iq, dz, h2, config_.segment && !kColumnOnly);
           return true;

@@ -143,4 +143,22 @@ void reprojectDisparityOrganized(const cv::Mat& disparity, const StereoCameraMod
   }
 }
 
+std::size_t limitRangeImageDepth(double min_depth, double max_depth, cv::Mat* xyz) {
+  if (xyz == nullptr || xyz->empty() || xyz->type() != CV_32FC3) return 0;
+  const float lo = static_cast<float>(min_depth), hi = static_cast<float>(max_depth);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::size_t valid = 0;
+  for (int r = 0; r < xyz->rows; ++r) {
+    cv::Vec3f* p = xyz->ptr<cv::Vec3f>(r);
+    for (int c = 0; c < xyz->cols; ++c) {
+      if (p[c][2] >= lo && p[c][2] <= hi) {
+        ++valid;
+      } else {
+        p[c] = cv::Vec3f(nan, nan, nan);
+      }
+    }
+  }
+  return valid;
+}
+
 }  // namespace stereo_safety_map

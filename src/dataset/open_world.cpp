@@ -1,6 +1,7 @@
 #include "stereo_safety_map/dataset/open_world.h"
 
 #include "stereo_safety_map/core/map_image.h"
+#include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/dataset/trajectory.h"
 
@@ -107,8 +108,16 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
     ImageDegrader degrader(degradation, file.seed);
 
     std::vector<std::unique_ptr<StereoFrameProcessor>> processors;
-    for (const OpenWorldVariant& v : variants)
+    std::vector<std::unique_ptr<ObstacleDetector>> detectors;
+    for (const OpenWorldVariant& v : variants) {
       processors.push_back(std::make_unique<StereoFrameProcessor>(v.config));
+      detectors.push_back(v.config.obstacle_cue || v.score_detector
+                              ? std::make_unique<ObstacleDetector>(v.detector)
+                              : nullptr);
+    }
+    cv::Mat xyz;
+    ObstacleDetectionResult detection;
+    std::vector<Eigen::Vector3f> cue_points;
     OpenWorldScorer scorer(file.scene, gt, classes, options.scoring,
                            static_cast<int>(variants.size()));
     result.scores.assign(variants.size(), SceneScore());
@@ -154,6 +163,26 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
         } else {
           ok = p.processDisparity(processors[0]->disparity(), processors[0]->disparityCamera(),
                                   T_fixed_sensor, base, truth.t, &r, &why);
+        }
+        if (ok && detectors[k]) {
+          // The obstacle-detection nodelet's work on the same disparity message: the range
+          // image within [min_depth, max_depth], 003's detector with the reported pose (tf).
+          const StereoFrameProcessor& src =
+              k == 0 || variants[k].own_disparity ? p : *processors[0];
+          const StereoCameraModel& cam = src.disparityCamera();
+          if (!src.disparity().empty()) {
+            reprojectDisparityOrganized(src.disparity(), cam, variants[k].detector_max_depth, &xyz);
+            limitRangeImageDepth(variants[k].detector_min_depth, variants[k].detector_max_depth,
+                                 &xyz);
+            if (detectors[k]->detect(xyz, std::max(cam.fx, cam.fy), T_fixed_sensor, &detection,
+                                     cam.baseline)) {
+              scorer.scoreDetection(detection, &result.scores[k].detection);
+              if (variants[k].config.obstacle_cue) {
+                raisedObstaclePoints(detection, xyz, T_fixed_sensor, &cue_points, nullptr);
+                p.addObstacleCue(truth.t, cue_points);
+              }
+            }
+          }
         }
         if (!ok) continue;
         if (!options.image_dir.empty() &&

@@ -58,6 +58,29 @@ std::string OpenWorldScoringConfig::validate() const {
   return "";
 }
 
+double DetectionScore::precision() const {
+  const std::uint64_t judged = raised_points - raised_no_truth;
+  return judged > 0 ? static_cast<double>(raised_true) / static_cast<double>(judged)
+                    : std::numeric_limits<double>::quiet_NaN();
+}
+
+double DetectionScore::recall() const {
+  return checks > 0 ? static_cast<double>(checks_detected) / checks
+                    : std::numeric_limits<double>::quiet_NaN();
+}
+
+DetectionScore& DetectionScore::operator+=(const DetectionScore& o) {
+  frames += o.frames;
+  raised_points += o.raised_points;
+  raised_true += o.raised_true;
+  raised_no_truth += o.raised_no_truth;
+  accepted += o.accepted;
+  accepted_false += o.accepted_false;
+  checks += o.checks;
+  checks_detected += o.checks_detected;
+  return *this;
+}
+
 SceneScore& SceneScore::operator+=(const SceneScore& o) {
   tol0 += o.tol0;
   tol1 += o.tol1;
@@ -81,6 +104,7 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   obstacle_maps_missed_lenient += o.obstacle_maps_missed_lenient;
   obstacle_safe_cells += o.obstacle_safe_cells;
   misses.insert(misses.end(), o.misses.begin(), o.misses.end());
+  detection += o.detection;
   return *this;
 }
 
@@ -207,6 +231,11 @@ int OpenWorldScorer::gtIndexOf(const Eigen::Vector2d& w) const {
 void OpenWorldScorer::observeFrame(const Eigen::Isometry3d& T_world_camera,
                                    const StereoCameraModel& cam, const cv::Mat& depth,
                                    const cv::Mat& ids, const Eigen::Vector2d& robot) {
+  frame_T_world_camera_ = T_world_camera;
+  frame_camera_ = cam;
+  frame_depth_ = depth;
+  frame_ids_ = ids;
+  in_view_now_.assign(obstacles_.size(), 0);
   // Obstacles in view: enough rendered pixels, and within R_max of the robot.
   if (!ids.empty() && ids.type() == CV_32S) {
     std::vector<int> pixels(obstacles_.size(), 0);
@@ -231,7 +260,10 @@ void OpenWorldScorer::observeFrame(const Eigen::Isometry3d& T_world_camera,
           break;
         }
       }
-      if (near) ++obstacles_[o].frames_in_view;
+      if (near) {
+        ++obstacles_[o].frames_in_view;
+        in_view_now_[o] = 1;
+      }
     }
   }
   // The swept field of view: GT cells whose ground (obstacle cells: the obstacle's lower part)
@@ -263,6 +295,81 @@ void OpenWorldScorer::observeFrame(const Eigen::Isometry3d& T_world_camera,
       const double tolerance = obstacle ? 0.3 : std::max(0.05, 0.03 * p.z());
       if (z >= p.z() - tolerance) seen_[k] = 1;
     }
+  }
+}
+
+void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
+                                     DetectionScore* s) const {
+  ++s->frames;
+  const cv::Mat& depth = frame_depth_;
+  const cv::Mat& ids = frame_ids_;
+  const bool truth = !depth.empty() && depth.type() == CV_32F && !ids.empty() &&
+                     ids.type() == CV_32S && depth.size() == result.mask.size() &&
+                     ids.size() == result.mask.size();
+  const bool labelled = !result.labels.empty() && result.labels.size() == result.mask.size();
+  std::vector<int> raised(result.obstacles.size() + 1, 0), raised_true(raised.size(), 0);
+  std::vector<std::uint8_t> detected(obstacles_.size(), 0);
+  const StereoCameraModel& cam = frame_camera_;
+  for (int r = 0; r < result.mask.rows; ++r) {
+    const std::uint8_t* m = result.mask.ptr<std::uint8_t>(r);
+    const std::int32_t* l = labelled ? result.labels.ptr<std::int32_t>(r) : nullptr;
+    for (int c = 0; c < result.mask.cols; ++c) {
+      if (m[c] != ObstacleDetectionResult::kRaised) continue;
+      ++s->raised_points;
+      const int label =
+          l != nullptr && l[c] > 0 && l[c] < static_cast<int>(raised.size()) ? l[c] : 0;
+      ++raised[label];
+      if (!truth) {
+        ++s->raised_no_truth;
+        continue;
+      }
+      const int p = ids.at<std::int32_t>(r, c);
+      const int o =
+          p >= 0 && p < static_cast<int>(group_of_primitive_.size()) ? group_of_primitive_[p] : -1;
+      bool ok = false;
+      if (o >= 0) {
+        ok = true;
+        detected[o] = 1;
+      } else {
+        const float z = depth.at<float>(r, c);
+        if (!std::isfinite(z) || !(z > 0.0f)) {
+          ++s->raised_no_truth;
+          continue;
+        }
+        const Eigen::Vector3d pc((c - cam.cx) * z / cam.fx, (r - cam.cy) * z / cam.fy, z);
+        const Eigen::Vector3d pw = frame_T_world_camera_ * pc;
+        const int u0 = gt_.cellOf(pw.x()), v0 = gt_.cellOf(pw.y());
+        for (int dv = -1; dv <= 1 && !ok; ++dv) {
+          for (int du = -1; du <= 1 && !ok; ++du) {
+            const int u = u0 + du, v = v0 + dv;
+            if (u < gt_.min_u || v < gt_.min_v || u >= gt_.min_u + gt_.width ||
+                v >= gt_.min_v + gt_.height) {
+              continue;
+            }
+            const int g = gt_.index(u, v);
+            ok = obstacle_cell_[g] != 0 || gtClass(g) == SafetyClass::kUnsafe;
+          }
+        }
+      }
+      if (ok) {
+        ++s->raised_true;
+        ++raised_true[label];
+      }
+    }
+  }
+  for (std::size_t k = 0; k < result.obstacles.size(); ++k) {
+    if (result.obstacles[k].rejected) continue;
+    ++s->accepted;
+    const int label = result.obstacles[k].label;
+    if (label > 0 && label < static_cast<int>(raised.size()) &&
+        2 * raised_true[label] < raised[label]) {
+      ++s->accepted_false;
+    }
+  }
+  for (std::size_t o = 0; o < obstacles_.size() && o < in_view_now_.size(); ++o) {
+    if (!in_view_now_[o]) continue;
+    ++s->checks;
+    if (detected[o]) ++s->checks_detected;
   }
 }
 

@@ -211,20 +211,8 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
       return;
     }
   }
-  const float lo = static_cast<float>(ros_config_.min_depth),
-              hi = static_cast<float>(ros_config_.max_depth);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::size_t valid = 0;
-  for (int r = 0; r < xyz_.rows; ++r) {
-    cv::Vec3f* p = xyz_.ptr<cv::Vec3f>(r);
-    for (int c = 0; c < xyz_.cols; ++c) {
-      if (p[c][2] >= lo && p[c][2] <= hi) {
-        ++valid;
-      } else {
-        p[c] = cv::Vec3f(nan, nan, nan);
-      }
-    }
-  }
+  const std::size_t valid =
+      limitRangeImageDepth(ros_config_.min_depth, ros_config_.max_depth, &xyz_);
   if (non_finite > 0) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     counts_.non_finite += non_finite;
@@ -238,9 +226,11 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
   }
 
   const auto t1 = std::chrono::steady_clock::now();
+  // The stereo baseline for the detector's noise margin (noise_sigmas); a cloud's is unknown.
+  const double baseline = frame.disparity ? camera_.baseline : 0.0;
   const bool ok = ros_config_.method == "columnwise"
-                      ? detector_->detectColumnwise(xyz_, f, T_fixed_camera, &result_)
-                      : detector_->detect(xyz_, f, T_fixed_camera, &result_);
+                      ? detector_->detectColumnwise(xyz_, f, T_fixed_camera, &result_, baseline)
+                      : detector_->detect(xyz_, f, T_fixed_camera, &result_, baseline);
   const double detect_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   if (!ok) {
@@ -318,12 +308,8 @@ void ObstacleDetectionRos::publishObstacles(const std_msgs::Header& header,
   // The raised points (upper ends of compatible pairs) of the accepted obstacles, in the fixed
   // frame, with their label: the obstacle cue of the safety map (core/obstacle_cue.h). The feet
   // are the ground around an obstacle and are left out.
-  std::size_t n = 0;
-  for (int r = 0; r < result_.mask.rows; ++r) {
-    const std::uint8_t* m = result_.mask.ptr<std::uint8_t>(r);
-    for (int c = 0; c < result_.mask.cols; ++c)
-      n += m[c] == ObstacleDetectionResult::kRaised;
-  }
+  raisedObstaclePoints(result_, xyz_, T_fixed_camera, &raised_points_, &raised_labels_);
+  const std::size_t n = raised_points_.size();
   auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
   cloud->header = header;
   sensor_msgs::PointCloud2Modifier mod(*cloud);
@@ -341,20 +327,11 @@ void ObstacleDetectionRos::publishObstacles(const std_msgs::Header& header,
   }
   sensor_msgs::PointCloud2Iterator<float> x(*cloud, "x");
   sensor_msgs::PointCloud2Iterator<std::uint32_t> label(*cloud, "label");
-  for (int r = 0; r < result_.mask.rows; ++r) {
-    const std::uint8_t* m = result_.mask.ptr<std::uint8_t>(r);
-    const std::int32_t* l = result_.labels.ptr<std::int32_t>(r);
-    const cv::Vec3f* p = xyz_.ptr<cv::Vec3f>(r);
-    for (int c = 0; c < result_.mask.cols; ++c) {
-      if (m[c] != ObstacleDetectionResult::kRaised) continue;
-      const Eigen::Vector3f q = T_fixed_camera * Eigen::Vector3f(p[c][0], p[c][1], p[c][2]);
-      x[0] = q.x();
-      x[1] = q.y();
-      x[2] = q.z();
-      *label = static_cast<std::uint32_t>(std::max(0, l[c]));
-      ++x;
-      ++label;
-    }
+  for (std::size_t i = 0; i < n; ++i, ++x, ++label) {
+    x[0] = raised_points_[i].x();
+    x[1] = raised_points_[i].y();
+    x[2] = raised_points_[i].z();
+    *label = raised_labels_[i];
   }
   obstacles_pub_.publish(cloud);
 }

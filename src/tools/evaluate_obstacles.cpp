@@ -418,18 +418,13 @@ std::string evaluateBag(const std::string& bag, bool latency_only, const Options
     }
     // The range image as the nodelet builds it: [min_depth, max_depth].
     ssm::reprojectDisparityOrganized(disp, frame.camera, orcfg.max_depth, &xyz);
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    for (int r = 0; r < xyz.rows; ++r) {
-      cv::Vec3f* p = xyz.ptr<cv::Vec3f>(r);
-      for (int c = 0; c < xyz.cols; ++c)
-        if (!(p[c][2] >= orcfg.min_depth)) p[c] = cv::Vec3f(nan, nan, nan);
-    }
+    ssm::limitRangeImageDepth(orcfg.min_depth, orcfg.max_depth, &xyz);
     const double f = std::max(frame.camera.fx, frame.camera.fy);
     double t0 = threadCpuMs();
-    const bool ok3 = detector.detect(xyz, f, T, &r3);
+    const bool ok3 = detector.detect(xyz, f, T, &r3, frame.camera.baseline);
     const double ms3 = threadCpuMs() - t0;
     t0 = threadCpuMs();
-    const bool okc = detector.detectColumnwise(xyz, f, T, &rc);
+    const bool okc = detector.detectColumnwise(xyz, f, T, &rc, frame.camera.baseline);
     const double msc = threadCpuMs() - t0;
     if (!ok3 || !okc) {
       ++res->problems["detector: " + (ok3 ? rc.error : r3.error)];

@@ -18,15 +18,21 @@
 // default (the documented default degradations), strong; or any spec parseDegradation() takes.
 // Variants: default (config files), paper (paperFaithful(): every "(ours)" switch off),
 // no_margin (drop_off_margin off), sgbm (matcher: sgbm), or name:key=value;key=value (the
-// configuration with these parameters: for trying a change on the dev split).
+// configuration with these parameters: for trying a change on the dev split; detector.<key> sets
+// paper 003's detector, config/obstacle_detection.yaml's keys). A variant with obstacle_cue=true
+// runs the detector on its disparity each frame and feeds its cue to the next maps (as the two
+// nodelets run side by side); --detector scores the detector per frame in every variant
+// (precision of its raised points, recall of the obstacles in view: DetectionScore).
 //
 // Writes DIR/metrics.json, DIR/report.md and DIR/scenes.csv (one line per scene, condition and
 // variant). Exits 0 when every scene ran.
+#include "stereo_safety_map/core/config_fields.h"
 #include "stereo_safety_map/core/evaluation_metrics.h"
 #include "stereo_safety_map/core/stereo_frame_processor.h"
 #include "stereo_safety_map/dataset/degradation.h"
 #include "stereo_safety_map/dataset/open_world.h"
 #include "stereo_safety_map/dataset/procedural_scene.h"
+#include "stereo_safety_map/ros/obstacle_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
 #include "stereo_safety_map/tools/args.h"
 #include "stereo_safety_map/tools/dataset_reader.h"
@@ -65,6 +71,7 @@ struct Options {
   std::vector<std::string> params;
   std::vector<std::string> sets;
   bool quiet = false;
+  bool detector = false;          // score paper 003's detector per frame in every variant
   std::vector<int> image_frames;  // pictures of these frames of every scene (DIR/images/)
 };
 
@@ -83,7 +90,7 @@ void usage() {
                "         [--conditions perfect,default,strong] [--variants default,paper,"
                "no_margin,sgbm]\n"
                "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
-               "key=value ...] [--quiet]\n");
+               "key=value ...] [--detector] [--quiet]\n");
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -93,7 +100,8 @@ bool parse(int argc, char** argv, Options* o) {
     if (a.value("--split", &o->split) || a.value("--scenes", &o->scenes) ||
         a.value("--first", &o->first) || a.value("--max-frames", &o->max_frames) ||
         a.value("--out", &o->out) || a.value("--params", &o->params) ||
-        a.value("--set", &o->sets) || a.flag("--quiet", &o->quiet))
+        a.value("--set", &o->sets) || a.flag("--quiet", &o->quiet) ||
+        a.flag("--detector", &o->detector))
       continue;
     if (a.value("--conditions", &v)) {
       o->conditions = splitList(v);
@@ -120,7 +128,8 @@ std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessor
   if (name == "default") return "";
   if (name == "paper") {
     v->config.mapper = ssm::paperFaithful(base.mapper);
-    v->config.row_gap_fill.enabled = false;  // the processor's "(ours)" switch
+    v->config.row_gap_fill.enabled = false;  // the processor's "(ours)" switches
+    v->config.obstacle_cue = false;           // 000 alone: no cue from 003's detector
     return "";
   }
   if (name == "no_margin") {
@@ -141,6 +150,38 @@ std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessor
     std::string kv;
     while (std::getline(ss, kv, ';')) {
       if (kv.empty()) continue;
+      // detector.<key>=value: paper 003's detector (config/obstacle_detection.yaml's keys).
+      if (kv.rfind("detector.", 0) == 0) {
+        YAML::Node root;
+        std::string e = ssm::parseAssignment(kv.substr(9), &root);
+        std::vector<std::string> unknown;
+        if (e.empty()) {
+          e = ssm::applyYamlFields(root, ssm::obstacleDetectionFields(), &v->detector, "variant",
+                                   &unknown);
+        }
+        if (e.empty() && !unknown.empty()) e = "unknown detector parameter " + unknown.front();
+        if (e.empty()) e = v->detector.validate();
+        if (!e.empty()) return "variant " + v->name + ": " + e;
+        continue;
+      }
+      // obstacle_cue*: the safety-map nodelet's cue settings (the processor's obstacle_cue, cue).
+      if (kv.rfind("obstacle_cue", 0) == 0) {
+        ssm::ObstacleCueRosConfig cue;
+        cue.enabled = v->config.obstacle_cue;
+        cue.cue = v->config.cue;
+        YAML::Node root;
+        std::string e = ssm::parseAssignment(kv, &root);
+        std::vector<std::string> unknown;
+        if (e.empty()) {
+          e = ssm::applyYamlFields(root, ssm::obstacleCueFields(), &cue, "variant", &unknown);
+        }
+        if (e.empty() && !unknown.empty()) e = "unknown cue parameter " + unknown.front();
+        if (e.empty()) e = ssm::obstacleCueFields().validate(cue);
+        if (!e.empty()) return "variant " + v->name + ": " + e;
+        v->config.obstacle_cue = cue.enabled;
+        v->config.cue = cue.cue;
+        continue;
+      }
       const std::string e = ssm::setCoreParam(kv, &v->config);
       if (!e.empty()) return "variant " + v->name + ": " + e;
     }
@@ -244,6 +285,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", e.c_str());
       return 2;
     }
+    v.score_detector = opt.detector;
     variants.push_back(v);
   }
   // A variant that maps the first one's disparity must not change the disparity settings.
@@ -356,13 +398,15 @@ int main(int argc, char** argv) {
       const ds::SceneScore& s = r.scores[v];
       char line[512];
       std::snprintf(line, sizeof(line),
-                    "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d",
+                    "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d,"
+                    "%d,%.5f,%.5f,%d",
                     cell.condition.c_str(), cell.variant.c_str(),
                     static_cast<unsigned long long>(r.seed), r.description.c_str(), s.maps,
                     fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1), fpRate(s.tol1),
                     fnRate(s.local_tol1), fpRate(s.local_tol1), coverage(s), noSegment(s),
                     s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
-                    s.obstacles_missed_lenient);
+                    s.obstacles_missed_lenient, s.detection.frames, s.detection.precision(),
+                    s.detection.recall(), s.detection.accepted_false);
       scene_lines.push_back(line);
     }
   }
@@ -376,7 +420,8 @@ int main(int argc, char** argv) {
     csv << "condition,variant,seed,scene,maps,fn_tol0,fp_tol0,fn_tol1,fp_tol1,fn_local_tol1,"
            "fp_local_tol1,coverage,"
            "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
-           "obstacles_missed_lenient\n";
+           "obstacles_missed_lenient,detector_frames,detector_precision,detector_recall,"
+           "detector_false_obstacles\n";
     for (const std::string& l : scene_lines)
       csv << l << "\n";
   }
@@ -400,6 +445,15 @@ int main(int argc, char** argv) {
         "obstacles missed (strict / after "
      << run.scoring.obstacle_lenient_frames
      << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  std::ostringstream detector_md;
+  detector_md << "\n## Paper 003's detector, per frame\n\nRaised points of accepted obstacles "
+                 "(the obstacle cue) on an obstacle or within one cell of unsafe ground truth "
+                 "(precision), qualifying obstacles in view within R_max with a raised point on "
+                 "them (recall, per frame), accepted obstacles with less than half of their raised "
+                 "points true (false obstacles per frame).\n\n| condition | variant | frames | "
+                 "precision | recall | obstacles per frame | false obstacles per frame |\n"
+                 "|---|---|---|---|---|---|---|\n";
+  bool any_detector = false;
   std::ostringstream classes_md;
   classes_md << "\n## Per hazard class (tol 1)\n\n| condition | variant | class | FN | FP "
                 "|\n|---|---|---|---|---|\n";
@@ -415,6 +469,16 @@ int main(int argc, char** argv) {
     ds::SceneScore total;
     for (const ds::SceneScore& s : c.scenes)
       total += s;
+    if (total.detection.frames > 0) {
+      any_detector = true;
+      const ds::DetectionScore& d = total.detection;
+      char row[256];
+      std::snprintf(row, sizeof(row), "| %s | %s | %d | %.1f %% | %.1f %% | %.2f | %.2f |\n",
+                    c.condition.c_str(), c.variant.c_str(), d.frames, 100.0 * d.precision(),
+                    100.0 * d.recall(), static_cast<double>(d.accepted) / d.frames,
+                    static_cast<double>(d.accepted_false) / d.frames);
+      detector_md << row;
+    }
     md << "| " << c.condition << " | " << c.variant << " | " << c.scenes.size() << " | " << pct(fn0)
        << " | " << pct(fn1) << " | " << pct(fp0) << " | " << pct(fp1) << " | " << pct(cov) << " | "
        << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << total.forgotten_cells
@@ -441,6 +505,15 @@ int main(int argc, char** argv) {
     j.kv("obstacle_maps_lenient", total.obstacle_maps_lenient);
     j.kv("obstacle_maps_missed_lenient", total.obstacle_maps_missed_lenient);
     j.kv("obstacle_safe_cells", total.obstacle_safe_cells);
+    if (total.detection.frames > 0) {
+      const ds::DetectionScore& d = total.detection;
+      j.key("detector").open('{');
+      j.kv("frames", d.frames).kv("precision", d.precision()).kv("recall", d.recall());
+      j.kv("raised_points", static_cast<std::uint64_t>(d.raised_points));
+      j.kv("accepted", d.accepted).kv("accepted_false", d.accepted_false);
+      j.kv("checks", d.checks).kv("checks_detected", d.checks_detected);
+      j.close('}');
+    }
     j.key("classes").open('{');
     for (int k = 1; k < ds::kHazardClassCount; ++k) {
       const Stat cfn = stat(c, [k](const ds::SceneScore& s) { return fnRate(s.by_class[k]); });
@@ -463,8 +536,10 @@ int main(int argc, char** argv) {
   j.kv("failures", failures);
   j.close('}');
   std::ofstream(opt.out + "/metrics.json") << j.str() << "\n";
-  std::ofstream(opt.out + "/report.md") << md.str() << classes_md.str();
+  const std::string detector_text = any_detector ? detector_md.str() : std::string();
+  std::ofstream(opt.out + "/report.md") << md.str() << detector_text << classes_md.str();
   std::printf("%s", md.str().c_str());
+  std::printf("%s", detector_text.c_str());
   std::printf("%s", classes_md.str().c_str());
   if (failures > 0) std::fprintf(stderr, "%d scene runs failed\n", failures);
   return failures > 0 ? 1 : 0;

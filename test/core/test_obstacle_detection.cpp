@@ -40,6 +40,7 @@ using ssm::ObstacleDetectionResult;
 using ssm::ObstacleDetector;
 using ssm::ObstacleInfo;
 using ssm::ObstacleRejection;
+using ssm::raisedObstaclePoints;
 
 namespace {
 
@@ -293,6 +294,9 @@ TEST(ObstacleDetectionConfig, EachBadParameterIsNamed) {
   check([](ObstacleDetectionConfig& c) { c.min_max_height = NAN; }, "min_max_height");
   check([](ObstacleDetectionConfig& c) { c.min_bbox_perimeter = -1.0; }, "min_bbox_perimeter");
   check([](ObstacleDetectionConfig& c) { c.min_volume = -1.0; }, "min_volume");
+  check([](ObstacleDetectionConfig& c) { c.noise_sigmas = -0.5; }, "noise_sigmas");
+  check([](ObstacleDetectionConfig& c) { c.noise_sigmas = NAN; }, "noise_sigmas");
+  check([](ObstacleDetectionConfig& c) { c.disparity_sigma = 0.0; }, "disparity_sigma");
 }
 
 TEST(ObstacleDetection, Definition1) {
@@ -966,3 +970,149 @@ TEST(ObstacleDetection, ColumnwiseEqualsBruteForceWithinColumns) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// The stereo noise margin (noise_sigmas, 001 Sec. 4.1's error model).
+
+namespace {
+
+// Each pixel's depth as a stereo camera of baseline b would measure it: disparity f b / Z plus
+// Gaussian noise of sigma_d pixels, the point moved along its ray to the new depth.
+cv::Mat withDisparityNoise(const cv::Mat& xyz, float f, float b, float sigma_d, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, sigma_d);
+  cv::Mat out = xyz.clone();
+  for (int v = 0; v < out.rows; ++v) {
+    for (int u = 0; u < out.cols; ++u) {
+      cv::Vec3f& p = out.at<cv::Vec3f>(v, u);
+      if (!(p[2] > 0.0f)) continue;
+      const float d = f * b / p[2] + noise(rng);
+      if (!(d > 1.0f)) {
+        p = cv::Vec3f(kNaN, kNaN, kNaN);
+        continue;
+      }
+      p *= (f * b / d) / p[2];
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(ObstacleDetectionNoiseMargin, FloorNoiseAtRangeIsNoObstacleTheBoxStillIs) {
+  // A 0.3 m box 2 m ahead on a floor seen to 8 m, with the disparity noise of a 0.12 m baseline
+  // camera (sigma_d 0.5 px). 003's constant test finds obstacles all over the far floor, where
+  // crossing depth errors of pixels a few rows apart make steep "pairs"; with a 2-sigma margin
+  // the floor is clear and the box is still found.
+  const Camera cam = makeCamera(320, 240, 300.0f, 1.1f, 15.0f);
+  const float b = 0.12f;
+  Rendered img = render(
+      {floorShape(), box(Eigen::Vector3f(2.0f, 0.0f, 0.15f), Eigen::Vector3f(0.15f, 0.2f, 0.15f))},
+      cam, 8.0f);
+  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, 7);
+  const cv::Mat box_px = shapePixelsAbove(img, cam, 1, 0.1f);
+  ASSERT_GT(cv::countNonZero(box_px), 300);
+  // Floor pixels farther than 1 m from the box: never part of it.
+  cv::Mat far_floor(img.id.size(), CV_8U, cv::Scalar(0));
+  for (int v = 0; v < img.id.rows; ++v) {
+    for (int u = 0; u < img.id.cols; ++u) {
+      if (img.id.at<int>(v, u) != 0) continue;
+      const cv::Vec3f p = img.xyz.at<cv::Vec3f>(v, u);
+      const Eigen::Vector3f q = cam.T * Eigen::Vector3f(p[0], p[1], p[2]);
+      if (std::isfinite(q.x()) && (q.head<2>() - Eigen::Vector2f(2.0f, 0.0f)).norm() > 1.0f) {
+        far_floor.at<std::uint8_t>(v, u) = 255;
+      }
+    }
+  }
+  ASSERT_GT(cv::countNonZero(far_floor), 20000);
+
+  ObstacleDetectionConfig paper = noRejection();
+  ObstacleDetectionConfig margin = paper;
+  margin.noise_sigmas = 2.0;
+  margin.disparity_sigma = 0.5;
+  ObstacleDetector det_paper(paper), det_margin(margin);
+  ObstacleDetectionResult res_paper, res_margin, res_no_baseline;
+  ASSERT_TRUE(det_paper.detect(img.xyz, cam.f, cam.T, &res_paper, b));
+  ASSERT_TRUE(det_margin.detect(img.xyz, cam.f, cam.T, &res_margin, b));
+  const int floor_paper =
+      countMasked(res_paper.mask == ObstacleDetectionResult::kRaised, far_floor);
+  const int floor_margin =
+      countMasked(res_margin.mask == ObstacleDetectionResult::kRaised, far_floor);
+  EXPECT_GT(floor_paper, 200) << "the noise must fool 003's constant test (else no test)";
+  EXPECT_LT(floor_margin, floor_paper / 20) << floor_paper;
+  const int box_paper = countMasked(res_paper.mask == ObstacleDetectionResult::kRaised, box_px);
+  const int box_margin = countMasked(res_margin.mask == ObstacleDetectionResult::kRaised, box_px);
+  // The margin asks a pair to stay steep with a run k s_xy longer (here ~0.15 m at 2 m), so the
+  // box's lower part no longer pairs with the floor; its upper part does.
+  EXPECT_GT(box_margin, cv::countNonZero(box_px) / 3) << box_paper;
+  // With 003's Sec. 5 rules on (the defaults), what a user gets: obstacles all over the floor
+  // without the margin, one on the box with it.
+  ObstacleDetectionConfig rules;
+  ObstacleDetectionConfig rules_margin = rules;
+  rules_margin.noise_sigmas = 2.0;
+  auto accepted = [&](const ObstacleDetectionConfig& cfg, int* on_box, int* elsewhere) {
+    ObstacleDetector det(cfg);
+    ObstacleDetectionResult res;
+    ASSERT_TRUE(det.detect(img.xyz, cam.f, cam.T, &res, b));
+    *on_box = *elsewhere = 0;
+    for (const ssm::ObstacleInfo& o : res.obstacles) {
+      if (o.rejected) continue;
+      const bool near_box = (o.centroid.head<2>() - Eigen::Vector2f(2.0f, 0.0f)).norm() < 0.5f;
+      ++(near_box ? *on_box : *elsewhere);
+    }
+  };
+  int on_box = 0, elsewhere = 0;
+  accepted(rules, &on_box, &elsewhere);
+  EXPECT_GT(elsewhere, 5) << "003's rules alone do not stop the floor's noise (else no test)";
+  accepted(rules_margin, &on_box, &elsewhere);
+  EXPECT_GE(on_box, 1);
+  EXPECT_EQ(elsewhere, 0);
+
+  // Without the baseline the margin is off: 003's test exactly.
+  ASSERT_TRUE(det_margin.detect(img.xyz, cam.f, cam.T, &res_no_baseline, 0.0));
+  EXPECT_EQ(cv::countNonZero(res_no_baseline.mask != res_paper.mask), 0);
+  // A bad baseline is refused.
+  EXPECT_FALSE(det_margin.detect(img.xyz, cam.f, cam.T, &res_no_baseline, -1.0));
+  EXPECT_FALSE(det_margin.detect(img.xyz, cam.f, cam.T, &res_no_baseline, NAN));
+}
+
+TEST(ObstacleDetectionNoiseMargin, MarksAreASubsetOfTheConstantTestsAndNearObstaclesStay) {
+  // The margin only removes pairs: every point it marks, 003's test marks too. Without noise a
+  // pole 1.5 m ahead keeps all of its points above H_T + the margin at that range (a vertical
+  // pair needs a rise of k (s_z + s_xy) ~ 0.13 m there, H_T included).
+  const Camera cam = makeCamera();
+  const Rendered img = render({floorShape(), pole(1.5f, 0.2f, 0.05f, 1.0f)}, cam, 8.0f);
+  ObstacleDetectionConfig margin = noRejection();
+  margin.noise_sigmas = 2.0;
+  ObstacleDetector det_paper(noRejection()), det_margin(margin);
+  ObstacleDetectionResult res_paper, res_margin;
+  ASSERT_TRUE(det_paper.detect(img.xyz, cam.f, cam.T, &res_paper, 0.12));
+  ASSERT_TRUE(det_margin.detect(img.xyz, cam.f, cam.T, &res_margin, 0.12));
+  EXPECT_EQ(cv::countNonZero((res_margin.mask != 0) & (res_paper.mask == 0)), 0);
+  const cv::Mat pole_px = shapePixelsAbove(img, cam, 1, 0.2f);
+  ASSERT_GT(cv::countNonZero(pole_px), 300);
+  // All but a few: the sampled search (sample_spacing) may skip the few partners left.
+  EXPECT_GE(countMasked(res_margin.mask == ObstacleDetectionResult::kRaised, pole_px),
+            cv::countNonZero(pole_px) * 97 / 100);
+}
+
+TEST(ObstacleDetection, RaisedObstaclePointsAreTheCue) {
+  const Camera cam = makeCamera();
+  const Rendered img = render({floorShape(), pole(2.5f, 0.3f, 0.05f, 1.0f)}, cam);
+  const ObstacleDetectionResult res = detect(img, cam);
+  std::vector<Eigen::Vector3f> points;
+  std::vector<std::uint32_t> labels;
+  raisedObstaclePoints(res, img.xyz, cam.T, &points, &labels);
+  ASSERT_EQ(points.size(), static_cast<std::size_t>(
+                               cv::countNonZero(res.mask == ObstacleDetectionResult::kRaised)));
+  ASSERT_EQ(labels.size(), points.size());
+  ASSERT_FALSE(points.empty());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_NEAR((points[i].head<2>() - Eigen::Vector2f(2.5f, 0.3f)).norm(), 0.05f, 0.02f);
+    EXPECT_GT(points[i].z(), 0.05f);
+    EXPECT_EQ(static_cast<int>(labels[i]), res.obstacles[0].label);
+  }
+  // A mismatched range image gives nothing (and does not crash).
+  raisedObstaclePoints(res, cv::Mat(10, 10, CV_32FC3), cam.T, &points, nullptr);
+  EXPECT_TRUE(points.empty());
+}

@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -88,5 +89,10 @@ void reprojectDisparity(const cv::Mat& disparity, const StereoCameraModel& model
 /// Organised variant: one entry per pixel, NaN where invalid (for range-image algorithms).
 void reprojectDisparityOrganized(const cv::Mat& disparity, const StereoCameraModel& model,
                                  double max_depth, cv::Mat* xyz /* CV_32FC3 */);
+
+/// The range image of the obstacle detector (paper 003) as the nodelet and the evaluations build
+/// it: every point of `xyz` (CV_32FC3, camera optical frame) whose z is not within
+/// [min_depth, max_depth] (NaN included) becomes NaN. Returns the points kept.
+std::size_t limitRangeImageDepth(double min_depth, double max_depth, cv::Mat* xyz);
 
 }  // namespace stereo_safety_map

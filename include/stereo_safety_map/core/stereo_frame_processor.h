@@ -64,9 +64,10 @@ struct StereoFrameProcessorConfig {
   /// 001's landmark filter in front of the voxel grid (off by default). Its depth range and
   /// stationary-frame thresholds are the mapper's (LandmarkStreamConfig::forMapper()).
   LandmarkStreamConfig landmark_filter;
-  /// Paper 003's single-frame obstacle cue fused into every new map (obstacle_cue.h; off by
-  /// default, see the README's "Obstacle cue").
-  bool obstacle_cue = false;
+  /// Paper 003's single-frame obstacle cue fused into every new map (obstacle_cue.h; on by
+  /// default, the nodelet's ~obstacle_cue; it acts only on cues handed in with addObstacleCue(),
+  /// see the README's "Obstacle cue").
+  bool obstacle_cue = true;
   ObstacleCueConfig cue;
 
   /// Empty when valid, otherwise a message naming the parameter and its range.

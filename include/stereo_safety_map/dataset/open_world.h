@@ -29,6 +29,15 @@ struct OpenWorldVariant {
   /// Computes its own disparity (another matcher or post-filters); false: maps the first
   /// variant's disparity (its disparity settings must then equal the first variant's).
   bool own_disparity = false;
+  /// Paper 003's detector on this variant's disparity every frame, as the obstacle-detection
+  /// nodelet runs beside the safety map: when config.obstacle_cue is on its raised points are
+  /// handed to the processor after the frame (the next maps use them: the two nodelets run in
+  /// parallel, so a map usually sees the previous frame's cue), and with score_detector (or the
+  /// cue) it is scored per frame (SceneScore::detection).
+  ObstacleDetectionConfig detector;
+  double detector_min_depth = 0.2;  ///< the nodelet's min_depth / max_depth [m]
+  double detector_max_depth = 8.0;
+  bool score_detector = false;
 };
 
 struct OpenWorldRunOptions {

@@ -27,6 +27,7 @@
 #pragma once
 
 #include "stereo_safety_map/core/evaluation_metrics.h"
+#include "stereo_safety_map/core/obstacle_detection.h"
 #include "stereo_safety_map/core/safety_map.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/dataset/ground_truth.h"
@@ -64,6 +65,24 @@ struct OpenWorldScoringConfig {
   std::string validate() const;
 };
 
+/// Paper 003's detector scored frame by frame (the "per-frame precision / recall"): its
+/// raised points (the obstacle cue) against the rendered truth of their pixels, and the
+/// qualifying obstacles in view against its detections. Sums over frames.
+struct DetectionScore {
+  int frames = 0;                     ///< frames the detector ran on
+  std::uint64_t raised_points = 0;    ///< raised points of accepted obstacles
+  std::uint64_t raised_true = 0;      ///< of which on an obstacle or unsafe GT (one cell)
+  std::uint64_t raised_no_truth = 0;  ///< of which nothing was rendered at their pixel
+  int accepted = 0;                   ///< accepted obstacles (summed over frames)
+  int accepted_false = 0;             ///< of which less than half of the raised points true
+  int checks = 0;                     ///< (qualifying obstacle in view within R_max, frame) pairs
+  int checks_detected = 0;            ///< of which with a raised point on that obstacle
+
+  double precision() const;  ///< raised_true / (raised_points - raised_no_truth), NaN if none
+  double recall() const;     ///< checks_detected / checks, NaN if none
+  DetectionScore& operator+=(const DetectionScore& o);
+};
+
 /// Everything measured on one scene for one mapper variant. Sums over the scene's maps.
 struct SceneScore {
   ConfusionCounts tol0;
@@ -91,6 +110,7 @@ struct SceneScore {
   int obstacle_maps_missed_lenient = 0;
   int obstacle_safe_cells = 0;  ///< cells inside an obstacle's footprint labelled safe (lenient)
   std::vector<std::string> misses;  ///< a few lines naming missed obstacles (first per obstacle)
+  DetectionScore detection;         ///< when the variant ran 003's detector
 
   SceneScore& operator+=(const SceneScore& o);
 };
@@ -119,6 +139,13 @@ class OpenWorldScorer {
   void scoreMap(int variant, const SafetyMap& map, double t, const Eigen::Isometry2d& T_world_odom,
                 const Eigen::Vector2d& robot, SceneScore* score);
 
+  /// One frame of paper 003's detector, run on the frame last given to observeFrame(): each
+  /// raised point of an accepted obstacle is true when its pixel shows a qualifying obstacle
+  /// (the rendered primitive ids) or its rendered surface point lies within one cell of an
+  /// unsafe ground-truth cell or an obstacle's column; every qualifying obstacle in view from
+  /// within R_max in that frame is detected when some raised point shows it.
+  void scoreDetection(const ObstacleDetectionResult& result, DetectionScore* score) const;
+
   /// Fills the per-scene obstacle counts of `score` (after the last map of the variant).
   void finish(SceneScore* score) const;
 
@@ -146,8 +173,13 @@ class OpenWorldScorer {
   const GroundTruthMap& gt_;
   const GroundTruthMap* local_ = nullptr;
   std::vector<HazardClass> classes_;
-  std::vector<std::uint8_t> seen_;           // per GT cell: ground seen by the camera
-  std::vector<std::int32_t> obstacle_of_;    // per GT cell: index into obstacles_, -1 none
+  std::vector<std::uint8_t> seen_;         // per GT cell: ground seen by the camera
+  std::vector<std::int32_t> obstacle_of_;  // per GT cell: index into obstacles_, -1 none
+  std::vector<std::uint8_t> in_view_now_;  // per obstacle: in view within R_max, last frame
+  // The last observed frame (scoreDetection): pose, camera, rendered depth and ids.
+  Eigen::Isometry3d frame_T_world_camera_ = Eigen::Isometry3d::Identity();
+  StereoCameraModel frame_camera_;
+  cv::Mat frame_depth_, frame_ids_;
   std::vector<std::uint8_t> obstacle_cell_;  // per GT cell: any non-ground solid stands there
   std::vector<Obstacle> obstacles_;
   std::vector<int> group_of_primitive_;  // obstacle index per scene primitive, -1

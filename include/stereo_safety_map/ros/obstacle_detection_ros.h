@@ -85,6 +85,8 @@ class ObstacleDetectionRos : public FrameNodeletShell<StereoFrame> {
   StereoCameraModel camera_;
   cv::Mat disparity_;
   cv::Mat xyz_;
+  std::vector<Eigen::Vector3f> raised_points_;  // the obstacle cue of the last frame
+  std::vector<std::uint32_t> raised_labels_;
   cv::Mat colour_;
 
   // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
