@@ -2,6 +2,7 @@
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
+#include "stereo_safety_map/ros/stereo_input_fields.h"
 
 #include <algorithm>
 #include <cmath>
@@ -34,22 +35,49 @@ std::string finishHybrid(HybridSafetyMapParams* p) {
   return err;
 }
 
+// The nodelet's own section: its input's fields (the shared stereo_input_fields.h helpers) and
+// the timing of the combination. laser_size_x / laser_size_y, also HybridSafetyMapRosConfig's, are
+// listed with the laser grid's fields.
+const ParamFieldList<HybridSafetyMapRosConfig>& nodeletSectionFields() {
+  using R = HybridSafetyMapRosConfig;
+  static const ParamFieldList<R> list = [] {
+    ParamFieldList<R> l;
+    l.section("Nodelet");
+    addFixedFrameField(l,
+                       "frame of the laser grid; must be the safety-map nodelet's (stereo maps in "
+                       "another frame are refused).");
+    addQueueSizeField(l, "scan subscriber and tf filter queue.");
+    l.add("vision_timeout", &R::vision_timeout)
+        .openClosed(0, 3600)
+        .unit("s")
+        .doc("a stereo map older than this, against the newest scan, is no longer combined.");
+    l.add("laser_only_rate", &R::laser_only_rate)
+        .closed(0, 100)
+        .unit("Hz")
+        .doc("rate of the laser-only map while no current stereo map exists; 0 = never.");
+    addTimeJumpResetField(
+        l, "scan stamps going back by more than this clear the grids; less: the scan is dropped.");
+    l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    return l;
+  }();
+  return list;
+}
+
 }  // namespace
 
 std::string HybridSafetyMapRosConfig::validate() const {
-  if (fixed_frame.empty()) return "fixed_frame must not be empty";
-  if (queue_size < 1 || queue_size > 1000) {
-    return rangeError("queue_size", queue_size, "[1, 1000]");
-  }
+  const std::string input_error =
+      firstError({frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
+                  queueSizeError(queue_size)});
+  if (!input_error.empty()) return input_error;
   if (!std::isfinite(vision_timeout) || vision_timeout <= 0.0 || vision_timeout > 3600.0) {
     return rangeError("vision_timeout", vision_timeout, "(0, 3600] s");
   }
   if (!std::isfinite(laser_only_rate) || laser_only_rate < 0.0 || laser_only_rate > 100.0) {
     return rangeError("laser_only_rate", laser_only_rate, "[0, 100] Hz");
   }
-  if (!std::isfinite(time_jump_reset) || time_jump_reset < 0.0 || time_jump_reset > 3600.0) {
-    return rangeError("time_jump_reset", time_jump_reset, "[0, 3600] s");
-  }
+  const std::string jump_error = timeJumpResetError(time_jump_reset);
+  if (!jump_error.empty()) return jump_error;
   if (!std::isfinite(laser_size_x) || laser_size_x <= 0.0 || laser_size_x > 1000.0) {
     return rangeError("laser_size_x", laser_size_x, "[resolution, 1000] m");
   }
@@ -64,30 +92,7 @@ const ParamFieldList<HybridSafetyMapParams>& hybridSafetyMapParamsFields() {
   using R = HybridSafetyMapRosConfig;
   static const ParamFieldList<P> list = [] {
     ParamFieldList<P> l;
-    l.section("Nodelet");
-    l.add("fixed_frame", &P::ros, &R::fixed_frame)
-        .rangeText("non-empty")
-        .doc(
-            "frame of the laser grid; must be the safety-map nodelet's (stereo maps in another "
-            "frame are refused).");
-    l.add("queue_size", &P::ros, &R::queue_size)
-        .closed(1, 1000)
-        .doc("scan subscriber and tf filter queue.");
-    l.add("vision_timeout", &P::ros, &R::vision_timeout)
-        .openClosed(0, 3600)
-        .unit("s")
-        .doc("a stereo map older than this, against the newest scan, is no longer combined.");
-    l.add("laser_only_rate", &P::ros, &R::laser_only_rate)
-        .closed(0, 100)
-        .unit("Hz")
-        .doc("rate of the laser-only map while no current stereo map exists; 0 = never.");
-    l.add("time_jump_reset", &P::ros, &R::time_jump_reset)
-        .closed(0, 3600)
-        .unit("s")
-        .doc(
-            "scan stamps going back by more than this clear the grids; less: the scan is "
-            "dropped.");
-    l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
+    l.include(nodeletSectionFields(), &P::ros);
     l.include(laserGridFields(), &P::laser);
     l.section(laserGridFields().fields().front().info.section);
     l.add("laser_size_x", &P::ros, &R::laser_size_x)

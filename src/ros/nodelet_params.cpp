@@ -4,7 +4,7 @@
 #include "stereo_safety_map/ros/disparity_params.h"
 #include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_params.h"
 #include "stereo_safety_map/ros/safety_map_params.h"
 
 #include <stdexcept>
@@ -43,8 +43,8 @@ std::vector<NodeletParams> makeNodeletParams() {
     all.push_back(n);
   }
   {
-    NodeletParams n{"occupancy_2d", "config/occupancy_2d.yaml", "", {}, {}};
-    append(occupancy2DRosFields(), &n.params);
+    NodeletParams n{"occupancy_grid_2d", "config/occupancy_grid_2d.yaml", "", {}, {}};
+    append(occupancyGrid2DRosFields(), &n.params);
     append(occupancyGrid2DFields(), &n.params);
     all.push_back(n);
   }

@@ -260,9 +260,9 @@ bool StereoInput::lookUp(const std_msgs::Header& header, const std::string& sens
     if (!base_frame.empty()) {
       const geometry_msgs::TransformStamped base =
           tf_buffer_->lookupTransform(fixed, base_frame, stamp, timeout);
-      pose->base = Eigen::Vector3f(static_cast<float>(base.transform.translation.x),
-                                   static_cast<float>(base.transform.translation.y),
-                                   static_cast<float>(base.transform.translation.z));
+      Eigen::Vector3d base_position;
+      tf2::fromMsg(base.transform.translation, base_position);
+      pose->base = base_position.cast<float>();
     }
   } catch (const tf2::TransformException& e) {
     books_.reject("missing tf", "dropped a frame at t = " + std::to_string(stamp.toSec()) +

@@ -37,6 +37,7 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/LaserScan.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -135,18 +136,10 @@ bool makeDir(const std::string& d) {
 
 geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const ros::Time& stamp,
                                       const std::string& parent, const std::string& child) {
-  geometry_msgs::TransformStamped m;
+  geometry_msgs::TransformStamped m = tf2::eigenToTransform(T);
   m.header.stamp = stamp;
   m.header.frame_id = parent;
   m.child_frame_id = child;
-  m.transform.translation.x = T.translation().x();
-  m.transform.translation.y = T.translation().y();
-  m.transform.translation.z = T.translation().z();
-  const Eigen::Quaterniond q(T.linear());
-  m.transform.rotation.x = q.x();
-  m.transform.rotation.y = q.y();
-  m.transform.rotation.z = q.z();
-  m.transform.rotation.w = q.w();
   return m;
 }
 
@@ -222,14 +215,8 @@ visualization_msgs::MarkerArray obstacleMarkers(const std::vector<ds::GroundTrut
     mk.type = o.shape == "cylinder" ? visualization_msgs::Marker::CYLINDER
                                     : visualization_msgs::Marker::CUBE;
     mk.action = visualization_msgs::Marker::ADD;
-    mk.pose.position.x = o.obb.center.x();
-    mk.pose.position.y = o.obb.center.y();
-    mk.pose.position.z = o.obb.center.z();
-    const Eigen::Quaterniond q(o.obb.rotation);
-    mk.pose.orientation.x = q.x();
-    mk.pose.orientation.y = q.y();
-    mk.pose.orientation.z = q.z();
-    mk.pose.orientation.w = q.w();
+    mk.pose.position = tf2::toMsg(o.obb.center);
+    mk.pose.orientation = tf2::toMsg(Eigen::Quaterniond(o.obb.rotation));
     mk.scale.x = 2.0 * o.obb.half_size.x();
     mk.scale.y = 2.0 * o.obb.half_size.y();
     mk.scale.z = 2.0 * o.obb.half_size.z();
@@ -494,11 +481,7 @@ int runOne(const std::string& path, const std::string& variant, const Options& o
       odom.header.stamp = stamp;
       odom.header.frame_id = kOdom;
       odom.child_frame_id = kBase;
-      const geometry_msgs::TransformStamped tb = toMsg(T_odom_base, stamp, kOdom, kBase);
-      odom.pose.pose.position.x = tb.transform.translation.x;
-      odom.pose.pose.position.y = tb.transform.translation.y;
-      odom.pose.pose.position.z = tb.transform.translation.z;
-      odom.pose.pose.orientation = tb.transform.rotation;
+      odom.pose.pose = tf2::toMsg(T_odom_base);
       odom.twist.twist.linear.x = p.v;
       odom.twist.twist.angular.z = p.omega;
       bag.write("/odom", stamp, odom);

@@ -7,6 +7,7 @@
 // camera_tf:=true starts this one (roslaunch-check found the missing node).
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <Eigen/Geometry>
@@ -47,13 +48,8 @@ int main(int argc, char** argv) {
   t.header.stamp = ros::Time::now();
   t.header.frame_id = args[7];
   t.child_frame_id = args[8];
-  t.transform.translation.x = v[0];
-  t.transform.translation.y = v[1];
-  t.transform.translation.z = v[2];
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.rotation.w = q.w();
+  tf2::toMsg(Eigen::Vector3d(v[0], v[1], v[2]), t.transform.translation);
+  t.transform.rotation = tf2::toMsg(q);
   tf2_ros::StaticTransformBroadcaster broadcaster;
   broadcaster.sendTransform(t);
   ros::spin();

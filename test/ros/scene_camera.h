@@ -10,6 +10,7 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include <Eigen/Geometry>
 
@@ -42,17 +43,9 @@ inline Eigen::Isometry3d baseToCamera(double height) {
 
 inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
                                              const std::string& child) {
-  geometry_msgs::TransformStamped t;
+  geometry_msgs::TransformStamped t = tf2::eigenToTransform(T);
   t.header.frame_id = parent;
   t.child_frame_id = child;
-  t.transform.translation.x = T.translation().x();
-  t.transform.translation.y = T.translation().y();
-  t.transform.translation.z = T.translation().z();
-  const Eigen::Quaterniond q(T.linear());
-  t.transform.rotation.x = q.x();
-  t.transform.rotation.y = q.y();
-  t.transform.rotation.z = q.z();
-  t.transform.rotation.w = q.w();
   return t;
 }
 

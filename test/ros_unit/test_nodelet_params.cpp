@@ -12,7 +12,7 @@
 #include "stereo_safety_map/ros/hybrid_safety_map_params.h"
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/obstacle_params.h"
-#include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
 #include "stereo_safety_map/ros/reconfigure_fields.h"
 #include "stereo_safety_map/ros/safety_map_params.h"
@@ -76,13 +76,13 @@ TEST(NodeletParams, RosListsRangesAreWhatValidateAccepts) {
   expectRangesMatchValidation(ssm::obstacleCueFields(), "obstacle cue");
   expectRangesMatchValidation(ssm::disparityRosFields(), "disparity nodelet");
   expectRangesMatchValidation(ssm::obstacleDetectionRosFields(), "obstacle detection nodelet");
-  expectRangesMatchValidation(ssm::occupancy2DRosFields(), "occupancy 2d nodelet");
+  expectRangesMatchValidation(ssm::occupancyGrid2DRosFields(), "occupancy 2d nodelet");
   expectRangesMatchValidation(ssm::hybridSafetyMapParamsFields(), "hybrid nodelet");
   expectAccessorsRoundTrip(ssm::safetyMapRosFields(), "safety map nodelet");
   expectAccessorsRoundTrip(ssm::obstacleCueFields(), "obstacle cue");
   expectAccessorsRoundTrip(ssm::disparityRosFields(), "disparity nodelet");
   expectAccessorsRoundTrip(ssm::obstacleDetectionRosFields(), "obstacle detection nodelet");
-  expectAccessorsRoundTrip(ssm::occupancy2DRosFields(), "occupancy 2d nodelet");
+  expectAccessorsRoundTrip(ssm::occupancyGrid2DRosFields(), "occupancy 2d nodelet");
   expectAccessorsRoundTrip(ssm::hybridSafetyMapParamsFields(), "hybrid nodelet");
 }
 
@@ -415,11 +415,12 @@ TEST(CoreParams, TheShippedFilesAreTheDefaults) {
   ssm::ObstacleCueRosConfig cue;
   ASSERT_EQ(ssm::loadObstacleCueParams(kSource + "/config/safety_map.yaml", &cue), "");
   ssm::OccupancyGrid2DConfig grid;
-  ASSERT_EQ(ssm::loadOccupancy2DParamsFile(kSource + "/config/occupancy_2d.yaml", &grid), "");
-  EXPECT_NE(ssm::setOccupancy2DParam("kk=3", &grid).find("unknown parameter kk"),
+  ASSERT_EQ(ssm::loadOccupancyGrid2DParamsFile(kSource + "/config/occupancy_grid_2d.yaml", &grid),
+            "");
+  EXPECT_NE(ssm::setOccupancyGrid2DParam("kk=3", &grid).find("unknown parameter kk"),
             std::string::npos);
-  EXPECT_EQ(ssm::setOccupancy2DParam("fixed_frame=map", &grid), "") << "a nodelet key: ignored";
-  EXPECT_EQ(ssm::setOccupancy2DParam("k=30", &grid), "");
+  EXPECT_EQ(ssm::setOccupancyGrid2DParam("fixed_frame=map", &grid), "") << "a nodelet key: ignored";
+  EXPECT_EQ(ssm::setOccupancyGrid2DParam("k=30", &grid), "");
   EXPECT_EQ(grid.k, 30);
 }
 

@@ -72,7 +72,7 @@ const ParamFieldList<StereoFrameProcessorConfig>& stereoFrameProcessorFields();
 /// Paper 003's detector (config/obstacle_detection.yaml).
 const ParamFieldList<ObstacleDetectionConfig>& obstacleDetectionFields();
 
-/// Paper 002's 2D occupancy grid (config/occupancy_2d.yaml).
+/// Paper 002's 2D occupancy grid (config/occupancy_grid_2d.yaml).
 const ParamFieldList<OccupancyGrid2DConfig>& occupancyGrid2DFields();
 
 /// Paper 001's laser grid: resolution and log-odds (its width and height come from the hybrid

@@ -20,7 +20,7 @@ struct NodeletParams {
   std::vector<std::string> other_names;
 };
 
-/// safety_map, disparity, obstacle_detection, occupancy_2d, hybrid_safety_map.
+/// safety_map, disparity, obstacle_detection, occupancy_grid_2d, hybrid_safety_map.
 const std::vector<NodeletParams>& allNodeletParams();
 /// One of them by name; throws std::out_of_range for another name.
 const NodeletParams& nodeletParams(const std::string& name);

@@ -1,9 +1,10 @@
 // The parameters of a stereo nodelet's input (ros/stereo_input.h; StereoInput::Options::of reads
 // fixed_frame, queue_size and approximate_sync) as fields of the nodelet's list
 // (core/param_fields.h): one name, range and doc for every nodelet that reads them, added in the
-// nodelet's README order. What differs from nodelet to nodelet (what `input` takes, what the
-// frames are for) is the nodelet's `doc`. The nodelets' validate() checks the same ranges with
-// the ...Error() functions below (the fields' ranges describe validate(): test_param_fields).
+// nodelet's README order. The hybrid nodelet, whose input is a laser scan, takes its frame, queue
+// and time-jump fields from here too. What differs from nodelet to nodelet (what `input` takes,
+// what the frames are for) is the nodelet's `doc`. The nodelets' validate() checks the same ranges
+// with the ...Error() functions below (the fields' ranges describe validate(): test_param_fields).
 #pragma once
 
 #include "stereo_safety_map/core/param_fields.h"
@@ -32,6 +33,12 @@ void addBaseFrameField(ParamFieldList<R>& l, std::string doc) {
   l.add("base_frame", &R::base_frame).rangeText("non-empty").doc(std::move(doc));
 }
 
+/// `queue_size` [1, 1000]; `doc` says which queues (the hybrid nodelet's scan queue, unsynced).
+template <class R>
+void addQueueSizeField(ParamFieldList<R>& l, std::string doc) {
+  l.add("queue_size", &R::queue_size).closed(1, 1000).doc(std::move(doc));
+}
+
 /// `queue_size` [1, 1000] and `approximate_sync`: the queues and the sync of a disparity with its
 /// CameraInfo. The disparity nodelet, which syncs images, passes its own docs.
 template <class R>
@@ -43,7 +50,7 @@ void addSyncFields(ParamFieldList<R>& l,
                        "approximate (message_filters' ApproximateTime) instead of exact "
                        "DisparityImage-CameraInfo sync (our matcher, see the safety map's Bad "
                        "input).") {
-  l.add("queue_size", &R::queue_size).closed(1, 1000).doc(std::move(queue_doc));
+  addQueueSizeField(l, std::move(queue_doc));
   l.add("approximate_sync", &R::approximate_sync).doc(std::move(sync_doc));
 }
 

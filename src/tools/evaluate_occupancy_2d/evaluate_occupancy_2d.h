@@ -34,7 +34,7 @@ struct Options {
   std::vector<std::string> compare_bags;  // repeating-texture scenes (ghost obstacles)
   std::vector<std::string> latency_bags;
   std::string out = "out/evaluation/occupancy_2d";
-  std::string params = "config/occupancy_2d.yaml";
+  std::string params = "config/occupancy_grid_2d.yaml";
   std::string core_params = "config/safety_map.yaml";
   std::string scenes = "scenes";  // where scene files named relatively in dataset.yaml are
   std::vector<std::string> sets;

@@ -4,7 +4,7 @@
 //
 //   evaluate_occupancy_2d --bag A.bag [--bag ...] [--compare-bag R.bag ...] [--latency-bag L.bag
 //   ...]
-//                         [--out DIR] [--params config/occupancy_2d.yaml]
+//                         [--out DIR] [--params config/occupancy_grid_2d.yaml]
 //                         [--core-params config/safety_map.yaml] [--set key=value ...]
 //                         [--radius R] [--every N] [--max-frames N] [--images N]
 //                         [--safety-metrics out/evaluation/metrics.json] [--no-safety-map]
@@ -37,7 +37,7 @@
 // evaluate_occupancy_2d.h.
 #include "evaluate_occupancy_2d.h"
 
-#include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_params.h"
 #include "stereo_safety_map/ros/param_yaml.h"
 #include "stereo_safety_map/tools/args.h"
 
@@ -57,7 +57,7 @@ void usage() {
       "  --compare-bag    repeating-texture dataset: the four spike-removal / accuracy-\n"
       "                   preservation variants compared (ghost obstacles)\n"
       "  --latency-bag    dataset with a board (000 Sec. VII-B): frame latency\n"
-      "  --params         2D grid parameters (config/occupancy_2d.yaml)\n"
+      "  --params         2D grid parameters (config/occupancy_grid_2d.yaml)\n"
       "  --core-params    disparity and safety-map parameters (config/safety_map.yaml)\n"
       "  --set            one 2D grid parameter, e.g. k=10\n"
       "  --radius         evaluate cells within R m of the robot (default: planning_radius)\n"
@@ -99,9 +99,9 @@ int main(int argc, char** argv) {
   Options opt;
   if (!parse(argc, argv, &opt)) return ssm::tools::usageError(usage);
   Setup setup;
-  std::string e = ssm::loadOccupancy2DParamsFile(opt.params, &setup.grid);
+  std::string e = ssm::loadOccupancyGrid2DParamsFile(opt.params, &setup.grid);
   for (const std::string& a : opt.sets)
-    if (e.empty()) e = ssm::setOccupancy2DParam(a, &setup.grid);
+    if (e.empty()) e = ssm::setOccupancyGrid2DParam(a, &setup.grid);
   if (e.empty()) e = ssm::loadCoreParams(opt.core_params, &setup.core);
   if (!e.empty()) {
     std::fprintf(stderr, "error: %s\n", e.c_str());

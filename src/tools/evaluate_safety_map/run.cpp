@@ -14,6 +14,7 @@
 #include <rosbag/view.h>
 #include <tf2/buffer_core.h>
 #include <tf2/exceptions.h>
+#include <tf2_eigen/tf2_eigen.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -319,15 +320,10 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
                                     0.0);
         double yaw = 0.0;
         try {
-          const auto t = reader.tf().lookupTransform(opt.fixed_frame, opt.base_frame, ros::Time(0));
-          yaw = std::atan2(2.0 * (t.transform.rotation.w * t.transform.rotation.z),
-                           1.0 - 2.0 * t.transform.rotation.z * t.transform.rotation.z);
-          cv::imwrite(
-              opt.out + "/model_3d.png",
-              render3dModel(mapper,
-                            Eigen::Vector3d(t.transform.translation.x, t.transform.translation.y,
-                                            t.transform.translation.z),
-                            yaw));
+          const Eigen::Isometry3d T = tf2::transformToEigen(
+              reader.tf().lookupTransform(opt.fixed_frame, opt.base_frame, ros::Time(0)));
+          yaw = std::atan2(T.linear()(1, 0), T.linear()(0, 0));
+          cv::imwrite(opt.out + "/model_3d.png", render3dModel(mapper, T.translation(), yaw));
         } catch (const tf2::TransformException&) {
           cv::imwrite(opt.out + "/model_3d.png", render3dModel(mapper, robot, yaw));
         }

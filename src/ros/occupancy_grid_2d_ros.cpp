@@ -1,7 +1,7 @@
-#include "stereo_safety_map/ros/occupancy_2d_ros.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_ros.h"
 
 #include "stereo_safety_map/ros/conversions.h"
-#include "stereo_safety_map/ros/occupancy_2d_conversions.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_conversions.h"
 #include "stereo_safety_map/ros/param_reader.h"
 
 #include <algorithm>
@@ -11,7 +11,7 @@ namespace stereo_safety_map {
 
 namespace {}  // namespace
 
-Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
+OccupancyGrid2DRos::OccupancyGrid2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
     : FrameNodeletShell(nh, pnh) {
   startDiagnostics(
       "stereo camera", "occupancy grid 2d",
@@ -20,11 +20,11 @@ Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   std::string err = fromRosParam(pnh_, &ros_config_);
   if (err.empty()) err = fromRosParam(pnh_, &grid_config_);
-  if (!acceptParams(err, occupancy2DParameterNames())) return;
+  if (!acceptParams(err, occupancyGrid2DParameterNames())) return;
   grid_ = std::make_unique<OccupancyGrid2D>(grid_config_);  // validated above: does not throw
 
   grid_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("occupancy_2d", 1, true);
-  reset_srv_ = pnh_.advertiseService("reset", &Occupancy2DRos::resetSrv, this);
+  reset_srv_ = pnh_.advertiseService("reset", &OccupancyGrid2DRos::resetSrv, this);
   startWorker([this](const Frame& frame) { processFrame(frame); },
               [this] { return ros_config_.max_rate; });
   setUpInputs();
@@ -34,7 +34,7 @@ Occupancy2DRos::Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh)
                         << "', K = " << grid_config_.k);
 }
 
-Occupancy2DRos::~Occupancy2DRos() {
+OccupancyGrid2DRos::~OccupancyGrid2DRos() {
   // Inputs first, so that no callback enqueues while the worker stops: the subscriptions end
   // (each waits for its callback in progress), then the filters (stereo_input.h: shutdown()).
   if (input_) input_->shutdown();  // none when the parameters were refused
@@ -42,14 +42,14 @@ Occupancy2DRos::~Occupancy2DRos() {
   diagnostics_->stop();
 }
 
-void Occupancy2DRos::setUpInputs() {
+void OccupancyGrid2DRos::setUpInputs() {
   auto options = StereoInput::Options::of(ros_config_);
   input_ = std::make_unique<StereoInput>(nh_, options, books_, [this](StereoFrame&& in) {
     putFrame(std::make_unique<Frame>(std::move(in)));
   });
 }
 
-void Occupancy2DRos::processFrame(const Frame& frame) {
+void OccupancyGrid2DRos::processFrame(const Frame& frame) {
   const Clock::time_point t0 = Clock::now();
   const ros::Time stamp = frame.header.stamp;
 
@@ -124,7 +124,7 @@ void Occupancy2DRos::processFrame(const Frame& frame) {
   last_update_ = result;
 }
 
-bool Occupancy2DRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
+bool OccupancyGrid2DRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response&) {
   if (!grid_) return false;
   std::lock_guard<std::mutex> lock(core_mutex_);
   grid_->clear();
@@ -136,7 +136,7 @@ bool Occupancy2DRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Respon
   return true;
 }
 
-void Occupancy2DRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+void OccupancyGrid2DRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(stats_mutex_);
   const ros::WallTime now = ros::WallTime::now();
   const double window = counts_.window(now);

@@ -1,25 +1,26 @@
-#include "stereo_safety_map/ros/occupancy_2d_conversions.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_conversions.h"
 
 #include <cstring>
 
 namespace stereo_safety_map {
 
-Occupancy2DClass occupancy2DClass(std::uint8_t g, int free_threshold, int occupied_threshold) {
-  if (g < free_threshold) return Occupancy2DClass::kFree;
-  if (g > occupied_threshold) return Occupancy2DClass::kOccupied;
-  return Occupancy2DClass::kUnknown;
+OccupancyGrid2DClass occupancyGrid2DClass(std::uint8_t g, int free_threshold,
+                                          int occupied_threshold) {
+  if (g < free_threshold) return OccupancyGrid2DClass::kFree;
+  if (g > occupied_threshold) return OccupancyGrid2DClass::kOccupied;
+  return OccupancyGrid2DClass::kUnknown;
 }
 
-std::int8_t occupancy2DValue(std::uint8_t g, int free_threshold, int occupied_threshold) {
-  return kOccupancy2DValueTable[static_cast<int>(
-                                    occupancy2DClass(g, free_threshold, occupied_threshold))]
+std::int8_t occupancyGrid2DValue(std::uint8_t g, int free_threshold, int occupied_threshold) {
+  return kOccupancyGrid2DValueTable[static_cast<int>(occupancyGrid2DClass(g, free_threshold,
+                                                                          occupied_threshold))]
       .value;
 }
 
-std::array<std::int8_t, 256> occupancy2DLookup(int free_threshold, int occupied_threshold) {
+std::array<std::int8_t, 256> occupancyGrid2DLookup(int free_threshold, int occupied_threshold) {
   std::array<std::int8_t, 256> lut{};
   for (int g = 0; g < 256; ++g)
-    lut[g] = occupancy2DValue(static_cast<std::uint8_t>(g), free_threshold, occupied_threshold);
+    lut[g] = occupancyGrid2DValue(static_cast<std::uint8_t>(g), free_threshold, occupied_threshold);
   return lut;
 }
 
@@ -44,7 +45,7 @@ void toOccupancyGrid(const OccupancyGrid2D& grid, const std_msgs::Header& header
   // order (row 0 at the origin, y growing with the row).
   grid.toImage(image);
   const std::array<std::int8_t, 256> lut =
-      occupancy2DLookup(c.free_threshold, c.occupied_threshold);
+      occupancyGrid2DLookup(c.free_threshold, c.occupied_threshold);
   out->data.resize(static_cast<std::size_t>(grid.sizeU()) * grid.sizeV());
   for (int r = 0; r < image->rows; ++r) {
     const std::uint8_t* src = image->ptr<std::uint8_t>(r);

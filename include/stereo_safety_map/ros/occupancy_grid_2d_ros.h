@@ -1,8 +1,8 @@
 // The 2D occupancy-grid ROS class (paper 002, Murray & Little 1998): stereo disparity and tf in,
 // the core's OccupancyGrid2D (core/occupancy_grid_2d.h: column maxima in a height band, trapezoid
 // sensor model, +/-K update, accuracy preservation) updated, nav_msgs/OccupancyGrid out in the
-// fixed frame. Wrapped by src/nodelets/occupancy_2d_nodelet.cpp
-// (stereo_safety_map/Occupancy2DNodelet). The disparity's own validation and spike removal (002
+// fixed frame. Wrapped by src/nodelets/occupancy_grid_2d_nodelet.cpp
+// (stereo_safety_map/OccupancyGrid2DNodelet). The disparity's own validation and spike removal (002
 // Sec. 2.2, 4.2) happen upstream, in the disparity nodelet.
 //
 // Inputs are synchronised as in the safety-map nodelet (the shared ros/stereo_input.h, without
@@ -17,7 +17,7 @@
 #include "stereo_safety_map/core/occupancy_grid_2d.h"
 #include "stereo_safety_map/core/stereo_camera_model.h"
 #include "stereo_safety_map/ros/nodelet_shell.h"
-#include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_params.h"
 #include "stereo_safety_map/ros/stereo_input.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -39,13 +39,13 @@
 
 namespace stereo_safety_map {
 
-class Occupancy2DRos : public FrameNodeletShell<StereoFrame> {
+class OccupancyGrid2DRos : public FrameNodeletShell<StereoFrame> {
  public:
   /// Reads and validates the parameters in `pnh`. With an invalid configuration the object logs
   /// the error (naming the parameter and its range), publishes it as an ERROR diagnostic and
   /// subscribes to nothing: see ok() / configError().
-  Occupancy2DRos(ros::NodeHandle nh, ros::NodeHandle pnh);
-  ~Occupancy2DRos();
+  OccupancyGrid2DRos(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~OccupancyGrid2DRos();
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -56,7 +56,7 @@ class Occupancy2DRos : public FrameNodeletShell<StereoFrame> {
   bool resetSrv(std_srvs::Empty::Request& req, std_srvs::Empty::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
-  Occupancy2DRosConfig ros_config_;
+  OccupancyGrid2DRosConfig ros_config_;
   OccupancyGrid2DConfig grid_config_;
 
   std::unique_ptr<StereoInput> input_;  ///< (stereo_input.h)

@@ -28,27 +28,28 @@
 
 namespace stereo_safety_map {
 
-enum class Occupancy2DClass : std::uint8_t { kFree = 0, kUnknown = 1, kOccupied = 2 };
+enum class OccupancyGrid2DClass : std::uint8_t { kFree = 0, kUnknown = 1, kOccupied = 2 };
 
-/// One row of the translation table, indexed by Occupancy2DClass.
-struct Occupancy2DValue {
-  Occupancy2DClass cls;
+/// One row of the translation table, indexed by OccupancyGrid2DClass.
+struct OccupancyGrid2DValue {
+  OccupancyGrid2DClass cls;
   std::int8_t value;
 };
-constexpr Occupancy2DValue kOccupancy2DValueTable[] = {
-    {Occupancy2DClass::kFree, 0},
-    {Occupancy2DClass::kUnknown, -1},
-    {Occupancy2DClass::kOccupied, 100},
+constexpr OccupancyGrid2DValue kOccupancyGrid2DValueTable[] = {
+    {OccupancyGrid2DClass::kFree, 0},
+    {OccupancyGrid2DClass::kUnknown, -1},
+    {OccupancyGrid2DClass::kOccupied, 100},
 };
 
 /// Class of a grid value under the planning thresholds (002 Sec. 3.4).
-Occupancy2DClass occupancy2DClass(std::uint8_t g, int free_threshold, int occupied_threshold);
+OccupancyGrid2DClass occupancyGrid2DClass(std::uint8_t g, int free_threshold,
+                                          int occupied_threshold);
 
-/// OccupancyGrid value of a grid value through kOccupancy2DValueTable.
-std::int8_t occupancy2DValue(std::uint8_t g, int free_threshold, int occupied_threshold);
+/// OccupancyGrid value of a grid value through kOccupancyGrid2DValueTable.
+std::int8_t occupancyGrid2DValue(std::uint8_t g, int free_threshold, int occupied_threshold);
 
 /// The table expanded for every G (what the conversion below uses).
-std::array<std::int8_t, 256> occupancy2DLookup(int free_threshold, int occupied_threshold);
+std::array<std::int8_t, 256> occupancyGrid2DLookup(int free_threshold, int occupied_threshold);
 
 /// The window of `grid` as an OccupancyGrid in `header.frame_id` (the fixed frame the grid was
 /// built in). `image` is a scratch buffer (reused between calls).

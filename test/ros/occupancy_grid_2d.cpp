@@ -1,4 +1,4 @@
-// The 2D occupancy-grid nodelet (stereo_safety_map/Occupancy2DNodelet, paper 002) on the
+// The 2D occupancy-grid nodelet (stereo_safety_map/OccupancyGrid2DNodelet, paper 002) on the
 // synthetic scene: level floor, a box at x 2.0..2.6, |y| <= 0.3, 0.5 m high, seen by a camera 1 m
 // above the robot's base pitched down 30 deg (test/ros/synthetic_scene.h). Known by
 // construction: every image column that sees the box reads its front top edge (the closest point
@@ -7,7 +7,7 @@
 // below the band) and leave their cells unknown.
 #include "test_util.h"
 
-#include "stereo_safety_map/ros/occupancy_2d_conversions.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_conversions.h"
 
 #include <gtest/gtest.h>
 #include <std_srvs/Empty.h>
@@ -25,7 +25,7 @@ constexpr int kWarn = diagnostic_msgs::DiagnosticStatus::WARN;
 constexpr int kError = diagnostic_msgs::DiagnosticStatus::ERROR;
 const char kNode[] = "/occ/occupancy_2d";
 
-class Occupancy2DTest : public ::testing::Test {
+class OccupancyGrid2DTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     nh_ = new ros::NodeHandle;
@@ -66,27 +66,27 @@ class Occupancy2DTest : public ::testing::Test {
   static Latest<nav_msgs::OccupancyGrid>* grid_;
   static test_util::DiagnosticsWatcher* diagnostics_;
 };
-ros::NodeHandle* Occupancy2DTest::nh_ = nullptr;
-tf2_ros::StaticTransformBroadcaster* Occupancy2DTest::tf_ = nullptr;
-test_util::ScenePublisher* Occupancy2DTest::pub_ = nullptr;
-Latest<nav_msgs::OccupancyGrid>* Occupancy2DTest::grid_ = nullptr;
-test_util::DiagnosticsWatcher* Occupancy2DTest::diagnostics_ = nullptr;
+ros::NodeHandle* OccupancyGrid2DTest::nh_ = nullptr;
+tf2_ros::StaticTransformBroadcaster* OccupancyGrid2DTest::tf_ = nullptr;
+test_util::ScenePublisher* OccupancyGrid2DTest::pub_ = nullptr;
+Latest<nav_msgs::OccupancyGrid>* OccupancyGrid2DTest::grid_ = nullptr;
+test_util::DiagnosticsWatcher* OccupancyGrid2DTest::diagnostics_ = nullptr;
 
-TEST(Occupancy2DValueTable, PlanningThresholdsOf002) {
-  using stereo_safety_map::occupancy2DValue;
-  EXPECT_EQ(occupancy2DValue(0, 50, 150), 0);
-  EXPECT_EQ(occupancy2DValue(49, 50, 150), 0);
-  EXPECT_EQ(occupancy2DValue(50, 50, 150), -1);
-  EXPECT_EQ(occupancy2DValue(128, 50, 150), -1);
-  EXPECT_EQ(occupancy2DValue(150, 50, 150), -1);
-  EXPECT_EQ(occupancy2DValue(151, 50, 150), 100);
-  EXPECT_EQ(occupancy2DValue(255, 50, 150), 100);
-  const auto lut = stereo_safety_map::occupancy2DLookup(50, 150);
+TEST(OccupancyGrid2DValueTable, PlanningThresholdsOf002) {
+  using stereo_safety_map::occupancyGrid2DValue;
+  EXPECT_EQ(occupancyGrid2DValue(0, 50, 150), 0);
+  EXPECT_EQ(occupancyGrid2DValue(49, 50, 150), 0);
+  EXPECT_EQ(occupancyGrid2DValue(50, 50, 150), -1);
+  EXPECT_EQ(occupancyGrid2DValue(128, 50, 150), -1);
+  EXPECT_EQ(occupancyGrid2DValue(150, 50, 150), -1);
+  EXPECT_EQ(occupancyGrid2DValue(151, 50, 150), 100);
+  EXPECT_EQ(occupancyGrid2DValue(255, 50, 150), 100);
+  const auto lut = stereo_safety_map::occupancyGrid2DLookup(50, 150);
   for (int g = 0; g < 256; ++g)
-    EXPECT_EQ(lut[g], occupancy2DValue(static_cast<std::uint8_t>(g), 50, 150));
+    EXPECT_EQ(lut[g], occupancyGrid2DValue(static_cast<std::uint8_t>(g), 50, 150));
 }
 
-TEST_F(Occupancy2DTest, BoxOccupiedFloorInFrontFree) {
+TEST_F(OccupancyGrid2DTest, BoxOccupiedFloorInFrontFree) {
   ASSERT_TRUE(pub_->waitForSubscribers(20.0)) << "the nodelet did not subscribe";
   test_util::sleepFor(0.5);
   // 002 Sec. 3.4 with K = 20: occupied (> 150) after 2 readings, free (< 50) after 4.
@@ -130,7 +130,7 @@ void checkBad(Latest<nav_msgs::OccupancyGrid>& grid, test_util::DiagnosticsWatch
   pub.publishDisparity(ros::Time::now());
   ASSERT_TRUE(waitFor([&] { return grid.count() > before; }, 10.0)) << "nodelet stopped serving";
   SCOPED_TRACE("good frame after bad input '" + diag_text + "'");
-  Occupancy2DTest::expectSceneGridPublic(*grid.get());
+  OccupancyGrid2DTest::expectSceneGridPublic(*grid.get());
 }
 
 std_msgs::Header header() {
@@ -140,7 +140,7 @@ std_msgs::Header header() {
   return h;
 }
 
-TEST_F(Occupancy2DTest, BadInputIsSkippedAndReported) {
+TEST_F(OccupancyGrid2DTest, BadInputIsSkippedAndReported) {
   ASSERT_TRUE(grid_->get()) << "needs the grid of the first test";
   test_util::ScenePublisher& pub = *pub_;
   // Disparity whose size differs from the CameraInfo's.
@@ -211,7 +211,7 @@ TEST_F(Occupancy2DTest, BadInputIsSkippedAndReported) {
   EXPECT_NE(diagnostics_->lastValue(kNode, "frames rejected (bad input)"), "0");
 }
 
-TEST_F(Occupancy2DTest, ResetClearsTheGrid) {
+TEST_F(OccupancyGrid2DTest, ResetClearsTheGrid) {
   std_srvs::Empty srv;
   ASSERT_TRUE(ros::service::waitForService("/occ/occupancy_2d/reset", 10000));
   ASSERT_TRUE(ros::service::call("/occ/occupancy_2d/reset", srv));
@@ -223,7 +223,7 @@ TEST_F(Occupancy2DTest, ResetClearsTheGrid) {
   EXPECT_EQ(costAt(*grid_->get(), 1.3, 0.0), -1);
 }
 
-TEST_F(Occupancy2DTest, InvalidConfigurationIsRefusedAndReported) {
+TEST_F(OccupancyGrid2DTest, InvalidConfigurationIsRefusedAndReported) {
   EXPECT_TRUE(waitFor(
       [] { return diagnostics_->seen("/bad/occupancy_2d", kError, "must be an integer"); }, 10.0))
       << "no ERROR diagnostic for ~k = 0.5";
@@ -237,7 +237,7 @@ TEST_F(Occupancy2DTest, InvalidConfigurationIsRefusedAndReported) {
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "occupancy_2d_test");
+  ros::init(argc, argv, "occupancy_grid_2d_test");
   ros::AsyncSpinner spinner(2);
   spinner.start();
   const int result = RUN_ALL_TESTS();

@@ -1,4 +1,4 @@
-#include "stereo_safety_map/ros/occupancy_2d_params.h"
+#include "stereo_safety_map/ros/occupancy_grid_2d_params.h"
 
 #include "stereo_safety_map/ros/nodelet_params.h"
 #include "stereo_safety_map/ros/param_reader.h"
@@ -19,7 +19,8 @@ std::string applyYaml(const YAML::Node& root, const std::string& where, Occupanc
   std::string e = applyYamlFields(root, occupancyGrid2DFields(), c, where, &unknown);
   if (!e.empty()) return e;
   for (const std::string& key : unknown) {
-    if (occupancy2DRosFields().find(key) == nullptr) return where + ": unknown parameter " + key;
+    if (occupancyGrid2DRosFields().find(key) == nullptr)
+      return where + ": unknown parameter " + key;
   }
   e = c->validate();
   return e.empty() ? "" : where + ": " + e;
@@ -27,15 +28,15 @@ std::string applyYaml(const YAML::Node& root, const std::string& where, Occupanc
 
 }  // namespace
 
-std::string Occupancy2DRosConfig::validate() const {
+std::string OccupancyGrid2DRosConfig::validate() const {
   return firstError({frameError("fixed_frame", fixed_frame, "a tf frame (e.g. odom)"),
                      frameError("base_frame", base_frame, "a tf frame (e.g. base_footprint)"),
                      queueSizeError(queue_size), maxRateError(max_rate), tfTimeoutError(tf_timeout),
                      timeJumpResetError(time_jump_reset)});
 }
 
-const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields() {
-  using R = Occupancy2DRosConfig;
+const ParamFieldList<OccupancyGrid2DRosConfig>& occupancyGrid2DRosFields() {
+  using R = OccupancyGrid2DRosConfig;
   static const ParamFieldList<R> list = [] {
     ParamFieldList<R> l;
     l.section("Nodelet");
@@ -62,15 +63,15 @@ std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DConfig* c) {
   return readParams(pnh, occupancyGrid2DFields(), c);
 }
 
-std::string fromRosParam(const ros::NodeHandle& pnh, Occupancy2DRosConfig* c) {
-  return readParams(pnh, occupancy2DRosFields(), c);
+std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DRosConfig* c) {
+  return readParams(pnh, occupancyGrid2DRosFields(), c);
 }
 
-std::vector<std::string> occupancy2DParameterNames() {
-  return nodeletParameterNames("occupancy_2d");
+std::vector<std::string> occupancyGrid2DParameterNames() {
+  return nodeletParameterNames("occupancy_grid_2d");
 }
 
-std::string loadOccupancy2DParamsFile(const std::string& path, OccupancyGrid2DConfig* c) {
+std::string loadOccupancyGrid2DParamsFile(const std::string& path, OccupancyGrid2DConfig* c) {
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -80,7 +81,7 @@ std::string loadOccupancy2DParamsFile(const std::string& path, OccupancyGrid2DCo
   return applyYaml(root, path, c);
 }
 
-std::string setOccupancy2DParam(const std::string& assignment, OccupancyGrid2DConfig* c) {
+std::string setOccupancyGrid2DParam(const std::string& assignment, OccupancyGrid2DConfig* c) {
   YAML::Node root;
   const std::string e = parseAssignment(assignment, &root);
   return e.empty() ? applyYaml(root, "--set", c) : e;

@@ -1,10 +1,10 @@
-// Validated parameters of the 2D occupancy-grid nodelet (stereo_safety_map/Occupancy2DNodelet,
+// Validated parameters of the 2D occupancy-grid nodelet (stereo_safety_map/OccupancyGrid2DNodelet,
 // paper 002) from its private namespace, and the same keys from a YAML file for the offline
 // evaluation (evaluate_occupancy_2d), so that both run the grid with the same settings.
 //
 // Names are the fields of OccupancyGrid2DConfig (core/occupancy_grid_2d.h) and of
-// Occupancy2DRosConfig below, flat in the private namespace (~k, ~floor_clearance, ...), as in
-// config/occupancy_2d.yaml. Absent keys keep the defaults (002's values where it gives one);
+// OccupancyGrid2DRosConfig below, flat in the private namespace (~k, ~floor_clearance, ...), as in
+// config/occupancy_grid_2d.yaml. Absent keys keep the defaults (002's values where it gives one);
 // every function returns an empty string when the values are valid, else one message naming the
 // parameter, its value and the allowed range (wrong types are refused, not truncated).
 #pragma once
@@ -21,7 +21,7 @@
 namespace stereo_safety_map {
 
 /// Settings of the 2D occupancy-grid nodelet that are not the core's.
-struct Occupancy2DRosConfig {
+struct OccupancyGrid2DRosConfig {
   std::string fixed_frame = "odom";           ///< frame the grid is built and published in
   std::string base_frame = "base_footprint";  ///< robot frame, origin on the floor (REP 120)
   int queue_size = 5;                         ///< subscriber / tf filter / sync queue [messages]
@@ -37,20 +37,20 @@ struct Occupancy2DRosConfig {
 
 /// The field list of the nodelet's settings (and diagnostic_period); the grid's is
 /// core/config_fields.h's occupancyGrid2DFields().
-const ParamFieldList<Occupancy2DRosConfig>& occupancy2DRosFields();
+const ParamFieldList<OccupancyGrid2DRosConfig>& occupancyGrid2DRosFields();
 
 std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DConfig* config);
-std::string fromRosParam(const ros::NodeHandle& pnh, Occupancy2DRosConfig* config);
+std::string fromRosParam(const ros::NodeHandle& pnh, OccupancyGrid2DRosConfig* config);
 
 /// Every parameter name the nodelet reads from its private namespace (for the unknown-parameter
 /// warning, param_reader.h's unknownParameters()).
-std::vector<std::string> occupancy2DParameterNames();
+std::vector<std::string> occupancyGrid2DParameterNames();
 
-/// The core keys of a YAML file such as config/occupancy_2d.yaml applied to `config` and
+/// The core keys of a YAML file such as config/occupancy_grid_2d.yaml applied to `config` and
 /// validated; the nodelet's own keys (frames, queues) are accepted and ignored, any other key is
 /// an error. Empty on success.
-std::string loadOccupancy2DParamsFile(const std::string& path, OccupancyGrid2DConfig* config);
+std::string loadOccupancyGrid2DParamsFile(const std::string& path, OccupancyGrid2DConfig* config);
 /// One `key=value` of the same core keys (for --set). Empty on success.
-std::string setOccupancy2DParam(const std::string& assignment, OccupancyGrid2DConfig* config);
+std::string setOccupancyGrid2DParam(const std::string& assignment, OccupancyGrid2DConfig* config);
 
 }  // namespace stereo_safety_map
