@@ -75,6 +75,7 @@ struct Options {
   std::string out = "out/evaluation/obstacles";
   std::string params;
   std::string obstacle_params;
+  double noise_sigmas = -1.0;  // >= 0: overrides the detector's noise_sigmas (0 = 003's test)
   int every = 1;
   long max_frames = -1;
   double max_range = 8.0;
@@ -89,7 +90,8 @@ void usage() {
   std::fprintf(
       stderr,
       "usage: evaluate_obstacles --bag FILE [--bag FILE ...] [--latency-bag FILE ...]\n"
-      "         [--out DIR] [--params YAML] [--obstacle-params YAML] [--every N]\n"
+      "         [--out DIR] [--params YAML] [--obstacle-params YAML] [--noise-sigmas K] [--every "
+      "N]\n"
       "         [--max-frames N] [--max-range M] [--min-visible N] [--min-fraction F]\n"
       "         [--margin M] [--images N] [--quiet]\n"
       "  --bag              dataset made by make_dataset: recall / precision against\n"
@@ -97,6 +99,7 @@ void usage() {
       "  --latency-bag      board dataset (000 Sec. VII-B): latency with / without cue\n"
       "  --params           safety-map parameters (config/safety_map.yaml; obstacle_cue_*)\n"
       "  --obstacle-params  detector parameters (config/obstacle_detection.yaml)\n"
+      "  --noise-sigmas K   override the detector's noise_sigmas (0 = 003's Definition 1)\n"
       "  --max-range M      points farther than M (depth) are ignored [8 m]\n"
       "  --min-visible N    a GT obstacle with fewer visible points is not in view [30]\n"
       "  --min-fraction F   detected when F of its visible points are detected [0.25]\n"
@@ -110,7 +113,8 @@ bool parseArgs(int argc, char** argv, Options* o) {
     if (a.value("--bag", &o->bags) || a.value("--latency-bag", &o->latency_bags) ||
         a.value("--out", &o->out) || a.value("--params", &o->params) ||
         a.value("--obstacle-params", &o->obstacle_params) ||
-        a.value("--max-frames", &o->max_frames) || a.flag("--quiet", &o->quiet))
+        a.value("--noise-sigmas", &o->noise_sigmas) || a.value("--max-frames", &o->max_frames) ||
+        a.flag("--quiet", &o->quiet))
       continue;
     if (a.value("--every", &o->every)) {
       if (o->every < 1) return false;
@@ -552,6 +556,10 @@ int main(int argc, char** argv) {
   }
   if (e.empty() && !opt.obstacle_params.empty())
     e = ssm::loadObstacleDetectionParams(opt.obstacle_params, &ocfg, &orcfg);
+  if (e.empty() && opt.noise_sigmas >= 0.0) {
+    ocfg.noise_sigmas = opt.noise_sigmas;
+    e = ocfg.validate();
+  }
   if (!e.empty()) {
     std::fprintf(stderr, "evaluate_obstacles: %s\n", e.c_str());
     return 2;
@@ -581,7 +589,8 @@ int main(int argc, char** argv) {
   md << "# Obstacle detection (paper 003) and the obstacle cue\n\n"
      << "Tool: `evaluate_obstacles` (src/tools/evaluate_obstacles.cpp). Detector: H_T "
      << ocfg.height_threshold << " m, H_max " << ocfg.max_height << " m, theta_T "
-     << ocfg.slope_threshold_deg << " deg, "
+     << ocfg.slope_threshold_deg << " deg, stereo noise margin " << ocfg.noise_sigmas
+     << " sigma (sigma_d " << ocfg.disparity_sigma << " px; 0 = 003's Definition 1), "
      << (ocfg.exhaustive_search ? "exhaustive" : "early-exit") << " search, min_volume "
      << ocfg.min_volume << " m^3; range image " << orcfg.min_depth << ".." << orcfg.max_depth
      << " m. Cue: lifetime " << ccfg.cue.lifetime << " s, " << ccfg.cue.min_points_per_cell
