@@ -605,7 +605,10 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       if (attribute_uniqueness) {
         // Same matcher without the test: what it would have accepted, the test removed.
         t = Clock::now();
-        if (!plain_matcher_) plain_matcher_ = createMatcher(key_, 0, -1);
+        // With OpenCV's check in the matcher, without that check either (attributed below).
+        if (!plain_matcher_) {
+          plain_matcher_ = createMatcher(key_, 0, check_in_matcher ? key_.num_disparities + 1 : -1);
+        }
         plain_matcher_->compute(*left_grey, *right_grey, raw_);
         convertMatcherOutput(raw_, &plain_disparity_);
         DisparityStepStats& uniq = st.step(DisparityStep::kUniqueness);

@@ -404,6 +404,24 @@ TEST(DisparityPipeline, LeftRightModeOpenCVChecksInsideTheMatcher) {
       }
     }
     EXPECT_EQ(marked, removed);
+
+    // With the uniqueness test as well: every reason is one of the three, valid exactly where
+    // the output is.
+    config.enable_uniqueness = true;
+    DisparityPipeline unique(config);
+    ASSERT_TRUE(unique.compute(scene.left, scene.right, &debug_checked, nullptr, &error)) << error;
+    int counts[7] = {0, 0, 0, 0, 0, 0, 0};
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kCols; ++x) {
+        const int reason = unique.removalReasons().at<uchar>(y, x);
+        ASSERT_LT(reason, 7);
+        ++counts[reason];
+        ASSERT_EQ(reason == static_cast<int>(DisparityRemoval::kValid),
+                  isValidDisparity(debug_checked.at<float>(y, x)));
+      }
+    }
+    EXPECT_GT(counts[static_cast<int>(DisparityRemoval::kUniqueness)], 0);
+    EXPECT_GT(counts[static_cast<int>(DisparityRemoval::kLeftRight)], 0);
   }
 }
 
