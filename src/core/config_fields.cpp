@@ -183,6 +183,21 @@ ParamFieldList<D> makeDisparityFields() {
         &LeftRightCheckConfig::reject_if_right_invalid)
       .live(kFilter)
       .doc("remove a pixel whose right-to-left match is missing.");
+  l.addAccessor<std::string>(
+       "left_right_mode",
+       [](const D& c) { return std::string(leftRightModeName(c.left_right_mode)); },
+       [](D* c, const std::string& v) -> std::string {
+         if (leftRightModeFromName(v, &c->left_right_mode)) return "";
+         return "left_right_mode = '" + v + "' must be 'full', 'half' or 'opencv'";
+       })
+      .oneOf({"full", "half", "opencv"})
+      .live(kMatcher)
+      .doc(
+          "full: a right-to-left match of its own (for sgbm a second full matcher); half: that "
+          "match on the half-size pair, its disparities doubled (~1/8 of the work, not bit for "
+          "bit full); opencv: OpenCV's check inside the left matcher (disp12MaxDiff = "
+          "floor(max_difference)), no second match, weaker: keeps pixels whose right pixel no "
+          "left winner claimed (ours, issue 18; docs/performance.md).");
   l.add("parallel_left_right", &D::parallel_left_right)
       .doc(
           "run the right-to-left matcher on a second thread beside the left-to-right one: the "
@@ -468,6 +483,31 @@ bool matcherFromName(const std::string& name, StereoMatcherType* type) {
     *type = StereoMatcherType::kBlockMatching;
   } else if (name == "sgbm") {
     *type = StereoMatcherType::kSemiGlobal;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+const char* leftRightModeName(LeftRightMode mode) {
+  switch (mode) {
+    case LeftRightMode::kOpenCV:
+      return "opencv";
+    case LeftRightMode::kHalfResolution:
+      return "half";
+    case LeftRightMode::kFull:
+      break;
+  }
+  return "full";
+}
+
+bool leftRightModeFromName(const std::string& name, LeftRightMode* mode) {
+  if (name == "full") {
+    *mode = LeftRightMode::kFull;
+  } else if (name == "opencv") {
+    *mode = LeftRightMode::kOpenCV;
+  } else if (name == "half") {
+    *mode = LeftRightMode::kHalfResolution;
   } else {
     return false;
   }

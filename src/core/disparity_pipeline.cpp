@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <limits>
 #include <sstream>
@@ -222,7 +223,8 @@ bool DisparityPipeline::MatcherKey::operator==(const MatcherKey& o) const {
          num_disparities == o.num_disparities && block_size == o.block_size &&
          pre_filter_cap == o.pre_filter_cap && texture_threshold == o.texture_threshold &&
          uniqueness_ratio == o.uniqueness_ratio && speckle_window_size == o.speckle_window_size &&
-         speckle_range == o.speckle_range && p1 == o.p1 && p2 == o.p2 && three_way == o.three_way;
+         speckle_range == o.speckle_range && p1 == o.p1 && p2 == o.p2 &&
+         disp12_max_diff == o.disp12_max_diff && three_way == o.three_way;
 }
 
 DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineConfig& c) {
@@ -245,20 +247,28 @@ DisparityPipeline::MatcherKey DisparityPipeline::keyOf(const DisparityPipelineCo
                              std::numeric_limits<int>::max(),
                              std::max<long long>(32LL * area, static_cast<long long>(k.p1) + 1)));
   k.three_way = c.sgbm_three_way;
+  // OpenCV compares integer disparities (its disp2 is integer): floor, so that the tolerance is
+  // never looser than left_right.max_difference.
+  k.disp12_max_diff = c.enable_left_right && c.left_right_mode == LeftRightMode::kOpenCV
+                          ? static_cast<int>(std::floor(c.left_right.max_difference))
+                          : -1;
   return k;
 }
 
 cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
-                                                            int uniqueness_ratio) {
-  // disp12MaxDiff = -1: the left-right check is our own, on a full right-to-left match. OpenCV's
-  // own (disp12MaxDiff = 1: the left match's winners competing for a right pixel) costs almost
-  // nothing but is not equivalent: measured on the five datasets (issue 18) it keeps 7 - 40 %
-  // more pixels per frame and the map's FP rate rises from 7.3 to 9.3 % (decr 1), FN from 1.9
-  // to 2.6 % (decr 3).
+                                                            int uniqueness_ratio,
+                                                            int disp12_max_diff) {
+  // disp12MaxDiff = -1 (left_right_mode full, the default): the left-right check is our own, on
+  // a full right-to-left match. OpenCV's own (left_right_mode opencv: the left match's winners
+  // competing for a right pixel) costs almost nothing but is not equivalent: measured on the
+  // five datasets (issue 18, docs/performance.md) with BM it keeps 7 - 40 % more pixels per
+  // frame and the map's FP rate rises from 7.3 to 9.3 % (decr 1), FN from 1.9 to 2.6 % (decr 3).
+  // StereoBM turns its check off for -1; StereoSGBM (OpenCV 4.6) takes any value <= 0 as 1, so
+  // its check always runs, in every mode, before ours (and in the "StereoSGBM alone" peer).
   if (k.type == StereoMatcherType::kSemiGlobal) {
     return cv::StereoSGBM::create(
-        k.min_disparity, k.num_disparities, k.block_size, k.p1, k.p2, -1, k.pre_filter_cap,
-        uniqueness_ratio, k.speckle_window_size, k.speckle_range,
+        k.min_disparity, k.num_disparities, k.block_size, k.p1, k.p2, disp12_max_diff,
+        k.pre_filter_cap, uniqueness_ratio, k.speckle_window_size, k.speckle_range,
         k.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
   }
   cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(k.num_disparities, k.block_size);
@@ -270,21 +280,42 @@ cv::Ptr<cv::StereoMatcher> DisparityPipeline::createMatcher(const MatcherKey& k,
   bm->setUniquenessRatio(uniqueness_ratio);
   bm->setSpeckleWindowSize(k.speckle_window_size);
   bm->setSpeckleRange(k.speckle_range);
-  bm->setDisp12MaxDiff(-1);
+  bm->setDisp12MaxDiff(disp12_max_diff);
   return bm;
+}
+
+// Half the image in each direction: half the disparities (at least 16), half the window (odd, at
+// least StereoBM's 5), OpenCV's customary penalties for that window (or the set ones scaled by
+// the window area), the speckle window a quarter.
+DisparityPipeline::MatcherKey DisparityPipeline::halfKeyOf(const MatcherKey& key) {
+  MatcherKey k = key;
+  k.min_disparity = key.min_disparity / 2;
+  k.num_disparities = std::max(16, (key.num_disparities / 2 + 15) / 16 * 16);
+  k.block_size =
+      std::max(key.type == StereoMatcherType::kBlockMatching ? 5 : 1, (key.block_size / 2) | 1);
+  const double area_ratio = static_cast<double>(k.block_size * k.block_size) /
+                            static_cast<double>(key.block_size * key.block_size);
+  k.p1 = std::max(1, static_cast<int>(std::lround(key.p1 * area_ratio)));
+  k.p2 = std::max(k.p1 + 1, static_cast<int>(std::lround(key.p2 * area_ratio)));
+  k.speckle_window_size = key.speckle_window_size / 4;
+  k.disp12_max_diff = -1;
+  return k;
 }
 
 cv::Ptr<cv::StereoMatcher> DisparityPipeline::matcherFor(const DisparityPipelineConfig& config) {
   const MatcherKey key = keyOf(config);
-  return createMatcher(key, key.uniqueness_ratio);
+  return createMatcher(key, key.uniqueness_ratio, key.disp12_max_diff);
 }
 
 void DisparityPipeline::ensureMatchers() {
   const MatcherKey key = keyOf(config_);
-  if (left_matcher_ && key == key_) return;
-  left_matcher_ = createMatcher(key, key.uniqueness_ratio);
-  right_matcher_ = createMatcher(key, key.uniqueness_ratio);
+  const MatcherKey right_key = halfResolutionRight() ? halfKeyOf(key) : key;
+  if (left_matcher_ && key == key_ && right_key == right_key_) return;
+  left_matcher_ = createMatcher(key, key.uniqueness_ratio, key.disp12_max_diff);
+  right_matcher_ = createMatcher(right_key, right_key.uniqueness_ratio, -1);
+  right_key_ = right_key;
   plain_matcher_.reset();
+  unchecked_matcher_.reset();
   key_ = key;
   ++matcher_builds_;
 }
@@ -324,11 +355,19 @@ void DisparityPipeline::convertMatcherOutput(const cv::Mat& raw, cv::Mat* dispar
 // so that every right pixel gets a disparity; candidates falling into the padding lie outside
 // the left image. Touches only the right-to-left buffers, so that it can run beside the
 // left-to-right matching and the texture test (parallel_left_right).
-void DisparityPipeline::matchRightToLeft(const cv::Mat& left_grey, const cv::Mat& right_grey,
+void DisparityPipeline::matchRightToLeft(const cv::Mat& full_left, const cv::Mat& full_right,
                                          DisparityStepStats* stats) {
   const Clock::time_point t = Clock::now();
+  const bool half = halfResolutionRight();
+  if (half) {
+    const cv::Size half_size(full_left.cols / 2, full_left.rows / 2);
+    cv::resize(full_left, half_left_, half_size, 0.0, 0.0, cv::INTER_AREA);
+    cv::resize(full_right, half_right_, half_size, 0.0, 0.0, cv::INTER_AREA);
+  }
+  const cv::Mat& left_grey = half ? half_left_ : full_left;
+  const cv::Mat& right_grey = half ? half_right_ : full_right;
   const cv::Size size = left_grey.size();
-  const int pad = config_.min_disparity + config_.num_disparities + config_.block_size / 2;
+  const int pad = right_key_.min_disparity + right_key_.num_disparities + right_key_.block_size / 2;
   const int w = size.width;
   mirrored_left_.create(size.height, w + pad, CV_8UC1);
   mirrored_right_.create(size.height, w + pad, CV_8UC1);
@@ -340,7 +379,20 @@ void DisparityPipeline::matchRightToLeft(const cv::Mat& left_grey, const cv::Mat
   replicateLeftColumns<std::uint8_t>(pad, &mirrored_right_);
   right_matcher_->compute(mirrored_left_, mirrored_right_, raw_mirrored_);
   cv::flip(raw_mirrored_.colRange(pad, pad + w), raw_right_, 1);
-  convertMatcherOutput(raw_right_, &right_disparity_);
+  if (half) {
+    // Each half-resolution right pixel's disparity, doubled, for the 2 x 2 full-resolution
+    // pixels it covers; an odd last row / column repeats the one before.
+    convertMatcherOutput(raw_right_, &half_right_disparity_);
+    right_disparity_.create(full_left.size(), CV_32FC1);
+    for (int y = 0; y < full_left.rows; ++y) {
+      const float* h = half_right_disparity_.ptr<float>(std::min(y / 2, size.height - 1));
+      float* d = right_disparity_.ptr<float>(y);
+      for (int x = 0; x < full_left.cols; ++x)
+        d[x] = 2.0f * h[std::min(x / 2, w - 1)];
+    }
+  } else {
+    convertMatcherOutput(raw_right_, &right_disparity_);
+  }
   right_ran_ = true;
   stats->ran = true;
   stats->valid_before = 0;
@@ -369,8 +421,9 @@ void DisparityPipeline::matchStripeTask(void* self) {
 }
 
 bool DisparityPipeline::useOneVolumeMatcher() const {
-  if (config_.matcher != StereoMatcherType::kBlockMatching || !config_.enable_left_right ||
-      config_.bm_texture_threshold != 0 || config_.speckle_window_size != 0) {
+  if (config_.matcher != StereoMatcherType::kBlockMatching || !secondMatch() ||
+      config_.left_right_mode != LeftRightMode::kFull || config_.bm_texture_threshold != 0 ||
+      config_.speckle_window_size != 0) {
     return false;
   }
   return LeftRightBlockMatcher::supports(blockMatcherParams());
@@ -463,6 +516,16 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       << " and height > block_size = " << config_.block_size;
     return fail(s.str());
   }
+  if (halfResolutionRight()) {
+    const MatcherKey h = halfKeyOf(keyOf(config_));
+    const int half_width = h.min_disparity + h.num_disparities + h.block_size;
+    if (left.cols / 2 <= half_width || left.rows / 2 <= h.block_size) {
+      std::ostringstream s;
+      s << "images " << left.cols << "x" << left.rows << " too small for left_right_mode half: "
+        << "the half-size pair needs width > " << half_width << " and height > " << h.block_size;
+      return fail(s.str());
+    }
+  }
 
   try {
     const cv::Size size = left.size();
@@ -484,7 +547,8 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     // reads the grey images and writes the right-to-left buffers.
     right_ran_ = false;  // the buffer itself is kept: no allocation per frame
     const bool one_volume = useOneVolumeMatcher();
-    const bool parallel = config_.enable_left_right && config_.parallel_left_right && !one_volume;
+    const bool second_match = secondMatch();
+    const bool parallel = second_match && config_.parallel_left_right && !one_volume;
     struct Join {
       detail::TaskThread* task;
       ~Join() {
@@ -531,6 +595,9 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     match.valid_after = valid;
     match.ms = msSince(t);
 
+    // left_right_mode opencv: the check ran inside the matcher, its removals are not counted
+    // apart (debug mode: attributed to kLeftRight below).
+    const bool check_in_matcher = key_.disp12_max_diff >= 0;
     if (config_.debug) {
       removal_.create(size, CV_8UC1);
       const bool attribute_uniqueness =
@@ -538,7 +605,10 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
       if (attribute_uniqueness) {
         // Same matcher without the test: what it would have accepted, the test removed.
         t = Clock::now();
-        if (!plain_matcher_) plain_matcher_ = createMatcher(key_, 0);
+        // With OpenCV's check in the matcher, without that check either (attributed below).
+        if (!plain_matcher_) {
+          plain_matcher_ = createMatcher(key_, 0, check_in_matcher ? key_.num_disparities + 1 : -1);
+        }
         plain_matcher_->compute(*left_grey, *right_grey, raw_);
         convertMatcherOutput(raw_, &plain_disparity_);
         DisparityStepStats& uniq = st.step(DisparityStep::kUniqueness);
@@ -547,15 +617,32 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
         uniq.valid_after = valid;
         uniq.ms = msSince(t);
       }
-      const cv::Mat& reference = attribute_uniqueness ? plain_disparity_ : disparity;
+      if (check_in_matcher) {
+        // Same matcher without OpenCV's left-right check: what that check removed. A tolerance
+        // above any disparity difference turns it off (StereoSGBM takes -1 and 0 as 1).
+        if (!unchecked_matcher_) {
+          unchecked_matcher_ = createMatcher(key_, key_.uniqueness_ratio, key_.num_disparities + 1);
+        }
+        unchecked_matcher_->compute(*left_grey, *right_grey, raw_);
+        const int valid_unchecked = convertRaw(raw_, &unchecked_disparity_);
+        if (attribute_uniqueness) st.step(DisparityStep::kUniqueness).valid_after = valid_unchecked;
+      }
+      const cv::Mat& reference = attribute_uniqueness ? plain_disparity_
+                                 : check_in_matcher   ? unchecked_disparity_
+                                                      : disparity;
+      const cv::Mat& unchecked = check_in_matcher ? unchecked_disparity_ : disparity;
       for (int y = 0; y < size.height; ++y) {
         const float* before = reference.ptr<float>(y);
+        const float* middle = unchecked.ptr<float>(y);
         const float* after = disparity.ptr<float>(y);
         std::uint8_t* r = removal_.ptr<std::uint8_t>(y);
         for (int x = 0; x < size.width; ++x) {
-          r[x] = static_cast<std::uint8_t>(!(before[x] > 0.0f) ? DisparityRemoval::kMatcher
-                                           : after[x] > 0.0f   ? DisparityRemoval::kValid
-                                                               : DisparityRemoval::kUniqueness);
+          // Valid first: StereoSGBM's 3x3 median runs after its tests, so a pixel may be valid
+          // in the output and not in a matcher run without a test.
+          r[x] = static_cast<std::uint8_t>(after[x] > 0.0f       ? DisparityRemoval::kValid
+                                           : !(before[x] > 0.0f) ? DisparityRemoval::kMatcher
+                                           : !(middle[x] > 0.0f) ? DisparityRemoval::kUniqueness
+                                                                 : DisparityRemoval::kLeftRight);
         }
       }
     }
@@ -583,7 +670,13 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     }
 
     // --- 3. left-right consistency (002 Sec. 4.1, ref. [7]) against the right-to-left match.
-    if (config_.enable_left_right) {
+    if (check_in_matcher) {
+      // Done inside the matcher (step 1): its removals are in kMatching's count (debug mode
+      // marks them kLeftRight in the removal image).
+      DisparityStepStats& lr = st.step(DisparityStep::kLeftRight);
+      lr.ran = true;
+      lr.valid_before = lr.valid_after = valid;
+    } else if (second_match) {
       DisparityStepStats& rm = st.step(DisparityStep::kRightMatching);
       if (one_volume) {
         const Clock::time_point t0 = Clock::now();

@@ -330,6 +330,101 @@ TEST(DisparityPipeline, OccludedRegionIsRemovedByLeftRightCheck) {
   EXPECT_LE(count(disparity, scene.truth, occluded).wrong, occluded.area() / 50);
 }
 
+// left_right_mode opencv (issue 18): OpenCV's check inside the left matcher, no second match. It
+// only invalidates pixels of the unchecked matcher's output (every value it keeps is that
+// output's, bit for bit), removes the occluded band's wrong matches, and debug mode marks exactly
+// its removals kLeftRight.
+TEST(DisparityPipeline, LeftRightModeOpenCVChecksInsideTheMatcher) {
+  const cv::Rect box(150, 60, 80, 120);
+  const Scene scene = render({background(10, 6), Layer{box, 34, randomDots(7)}});
+  const cv::Rect occluded(128, 70, 19, 100);
+  for (const StereoMatcherType matcher :
+       {StereoMatcherType::kBlockMatching, StereoMatcherType::kSemiGlobal}) {
+    SCOPED_TRACE(matcher == StereoMatcherType::kSemiGlobal ? "sgbm" : "bm");
+    DisparityPipelineConfig config;
+    config.matcher = matcher;
+    config.enable_uniqueness = false;
+    config.enable_texture = config.enable_neighbour_consistency = false;
+    config.enable_spike_removal = false;
+    config.enable_left_right = false;
+    // The same matcher without any left-right check: StereoSGBM takes disp12MaxDiff -1 as 1, a
+    // tolerance above every disparity difference turns the check off in both matchers.
+    cv::Ptr<cv::StereoMatcher> plain = DisparityPipeline::matcherFor(config);
+    plain->setDisp12MaxDiff(config.num_disparities + 1);
+    cv::Mat raw, unchecked, checked, debug_checked;
+    plain->compute(scene.left, scene.right, raw);
+    raw.convertTo(unchecked, CV_32F, 1.0 / cv::StereoMatcher::DISP_SCALE);
+    unchecked.setTo(0.0f, unchecked < 0.0f);
+    std::string error;
+
+    config.enable_left_right = true;
+    config.left_right_mode = LeftRightMode::kOpenCV;
+    DisparityPipeline with(config);
+    DisparityStats stats;
+    ASSERT_TRUE(with.compute(scene.left, scene.right, &checked, &stats, &error)) << error;
+    EXPECT_FALSE(stats.step(DisparityStep::kRightMatching).ran);  // no second match
+    EXPECT_TRUE(stats.step(DisparityStep::kLeftRight).ran);
+    EXPECT_TRUE(with.rightDisparity().empty());
+
+    int removed = 0;
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kCols; ++x) {
+        const float c = checked.at<float>(y, x);
+        if (isValidDisparity(c)) {
+          // StereoSGBM's 3x3 median runs after its check: neighbours of removed pixels move.
+          if (matcher == StereoMatcherType::kBlockMatching) {
+            ASSERT_EQ(c, unchecked.at<float>(y, x)) << x << ", " << y;
+          }
+        } else {
+          removed += isValidDisparity(unchecked.at<float>(y, x));
+        }
+      }
+    }
+    EXPECT_GT(removed, 0);
+    const RoiCounts before = count(unchecked, scene.truth, occluded);
+    const RoiCounts after = count(checked, scene.truth, occluded);
+    EXPECT_GE(before.wrong, occluded.area() / 2);
+    EXPECT_LT(after.wrong, before.wrong / 2);
+
+    config.debug = true;
+    DisparityPipeline debug(config);
+    ASSERT_TRUE(debug.compute(scene.left, scene.right, &debug_checked, nullptr, &error)) << error;
+    EXPECT_EQ(cv::norm(checked, debug_checked, cv::NORM_INF), 0.0);
+    const cv::Mat& reasons = debug.removalReasons();
+    int marked = 0;
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kCols; ++x) {
+        const bool lr = reasons.at<uchar>(y, x) == static_cast<uchar>(DisparityRemoval::kLeftRight);
+        marked += lr;
+        ASSERT_EQ(lr, isValidDisparity(unchecked.at<float>(y, x)) &&
+                          !isValidDisparity(checked.at<float>(y, x)))
+            << x << ", " << y;
+        ASSERT_EQ(reasons.at<uchar>(y, x) == static_cast<uchar>(DisparityRemoval::kValid),
+                  isValidDisparity(checked.at<float>(y, x)));
+      }
+    }
+    EXPECT_EQ(marked, removed);
+
+    // With the uniqueness test as well: every reason is one of the three, valid exactly where
+    // the output is.
+    config.enable_uniqueness = true;
+    DisparityPipeline unique(config);
+    ASSERT_TRUE(unique.compute(scene.left, scene.right, &debug_checked, nullptr, &error)) << error;
+    int counts[7] = {0, 0, 0, 0, 0, 0, 0};
+    for (int y = 0; y < kRows; ++y) {
+      for (int x = 0; x < kCols; ++x) {
+        const int reason = unique.removalReasons().at<uchar>(y, x);
+        ASSERT_LT(reason, 7);
+        ++counts[reason];
+        ASSERT_EQ(reason == static_cast<int>(DisparityRemoval::kValid),
+                  isValidDisparity(debug_checked.at<float>(y, x)));
+      }
+    }
+    EXPECT_GT(counts[static_cast<int>(DisparityRemoval::kUniqueness)], 0);
+    EXPECT_GT(counts[static_cast<int>(DisparityRemoval::kLeftRight)], 0);
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 // parallel_left_right runs the right-to-left matcher on a helper thread: the output, the
 // right-to-left disparities, the step counts and the debug reasons must be those of the

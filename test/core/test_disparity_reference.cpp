@@ -16,6 +16,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -76,6 +77,35 @@ cv::Mat referenceRightDisparity(const cv::Mat& left, const cv::Mat& right,
   cv::Mat raw_right;
   cv::flip(raw.colRange(pad, pad + left.cols), raw_right, 1);
   return toPixels(raw_right);
+}
+
+// left_right_mode half: the same right-to-left match on the pair shrunk 2x by area averaging, with
+// half the disparities and half the window; each half-size disparity doubled for the 2 x 2 pixels
+// it covers.
+cv::Mat referenceHalfRightDisparity(const cv::Mat& left, const cv::Mat& right,
+                                    const DisparityPipelineConfig& c) {
+  DisparityPipelineConfig h = c;
+  h.left_right_mode = LeftRightMode::kFull;
+  h.min_disparity = c.min_disparity / 2;
+  h.num_disparities = std::max(16, (c.num_disparities / 2 + 15) / 16 * 16);
+  h.block_size =
+      std::max(c.matcher == StereoMatcherType::kBlockMatching ? 5 : 1, (c.block_size / 2) | 1);
+  h.speckle_window_size = c.speckle_window_size / 4;
+  EXPECT_EQ(c.sgbm_p1, 0);  // the customary penalties of the half window
+  EXPECT_EQ(c.sgbm_p2, 0);
+  const cv::Size half_size(left.cols / 2, left.rows / 2);
+  cv::Mat hl, hr;
+  cv::resize(left, hl, half_size, 0.0, 0.0, cv::INTER_AREA);
+  cv::resize(right, hr, half_size, 0.0, 0.0, cv::INTER_AREA);
+  const cv::Mat half = referenceRightDisparity(hl, hr, h);
+  cv::Mat out(left.size(), CV_32FC1);
+  for (int y = 0; y < out.rows; ++y) {
+    for (int x = 0; x < out.cols; ++x) {
+      out.at<float>(y, x) =
+          2.0f * half.at<float>(std::min(y / 2, half.rows - 1), std::min(x / 2, half.cols - 1));
+    }
+  }
+  return out;
 }
 
 void referenceLeftRight(const cv::Mat& right_d, const LeftRightCheckConfig& c, cv::Mat* d) {
@@ -154,14 +184,31 @@ void referenceSpikes(const SpikeRemovalConfig& c, cv::Mat* d) {
   }
 }
 
+// The matcher without OpenCV's own left-right check (disp12MaxDiff -1), as left_right_mode full
+// sets it up; left_right_mode opencv: the same with OpenCV's check, disp12MaxDiff =
+// floor(max_difference), and no check of ours.
+cv::Ptr<cv::StereoMatcher> referenceMatcher(const DisparityPipelineConfig& c) {
+  DisparityPipelineConfig full = c;
+  full.left_right_mode = LeftRightMode::kFull;
+  cv::Ptr<cv::StereoMatcher> m = DisparityPipeline::matcherFor(full);
+  EXPECT_EQ(m->getDisp12MaxDiff(), -1);
+  if (c.enable_left_right && c.left_right_mode == LeftRightMode::kOpenCV) {
+    m->setDisp12MaxDiff(static_cast<int>(std::floor(c.left_right.max_difference)));
+  }
+  return m;
+}
+
 cv::Mat referencePipeline(const cv::Mat& left, const cv::Mat& right,
                           const DisparityPipelineConfig& c) {
   cv::Mat raw;
-  DisparityPipeline::matcherFor(c)->compute(left, right, raw);
+  referenceMatcher(c)->compute(left, right, raw);
   cv::Mat d = toPixels(raw);
   if (c.enable_texture) referenceTexture(left, c.texture, &d);
-  if (c.enable_left_right) {
+  if (c.enable_left_right && c.left_right_mode == LeftRightMode::kFull) {
     referenceLeftRight(referenceRightDisparity(left, right, c), c.left_right, &d);
+  }
+  if (c.enable_left_right && c.left_right_mode == LeftRightMode::kHalfResolution) {
+    referenceLeftRight(referenceHalfRightDisparity(left, right, c), c.left_right, &d);
   }
   if (c.enable_neighbour_consistency) referenceNeighbours(c.neighbour_consistency, &d);
   if (c.enable_spike_removal) referenceSpikes(c.spike_removal, &d);
@@ -291,6 +338,28 @@ std::vector<NamedConfig> configurations(StereoMatcherType matcher) {
   if (matcher == StereoMatcherType::kBlockMatching) c.bm_texture_threshold = 10;
   if (matcher == StereoMatcherType::kSemiGlobal) c.sgbm_three_way = true;
   out.push_back({"OpenCV's own filters on", c});
+  // OpenCV's left-right check inside the matcher instead of a second match (issue 18).
+  c = base;
+  c.left_right_mode = LeftRightMode::kOpenCV;
+  out.push_back({"left_right_mode opencv", c});
+  c.left_right.max_difference = 2.5;  // disp12MaxDiff 2
+  c.enable_texture = false;
+  out.push_back({"left_right_mode opencv, max_difference 2.5, no texture", c});
+  c = base;
+  c.left_right_mode = LeftRightMode::kOpenCV;
+  c.enable_left_right = false;  // the mode alone does nothing
+  out.push_back({"left_right_mode opencv, check off", c});
+  // The right-to-left match at half resolution (issue 18).
+  c = base;
+  c.left_right_mode = LeftRightMode::kHalfResolution;
+  out.push_back({"left_right_mode half", c});
+  c.min_disparity = 3;
+  c.num_disparities = 32;
+  c.block_size = 7;
+  c.texture.window_size = 7;
+  c.left_right.max_difference = 0.5;
+  c.left_right.reject_if_right_invalid = false;
+  out.push_back({"left_right_mode half, other matcher and check parameters", c});
   return out;
 }
 
@@ -362,6 +431,16 @@ TEST(DisparityReference, FullSizeFrames) {
     c.matcher = m;
     for (const bool parallel : {false, true}) {
       c.parallel_left_right = parallel;
+      // left_right_mode half at full size, on the helper thread or not (issue 18).
+      c.left_right_mode = LeftRightMode::kHalfResolution;
+      DisparityPipeline half(c);
+      for (const Pair& f : frames) {
+        cv::Mat actual;
+        std::string error;
+        ASSERT_TRUE(half.compute(f.left, f.right, &actual, nullptr, &error)) << error;
+        expectSame(referencePipeline(f.left, f.right, c), actual, f.name + ", half");
+      }
+      c.left_right_mode = LeftRightMode::kFull;
       DisparityPipeline pipeline(c);
       for (const Pair& f : frames) {
         cv::Mat actual;

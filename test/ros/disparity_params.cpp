@@ -86,6 +86,7 @@ TEST(DisparityParams, ShippedConfigIsValidCompleteAndTheCoreDefaults) {
   EXPECT_EQ(yaml.enable_left_right, core.enable_left_right);
   EXPECT_DOUBLE_EQ(yaml.left_right.max_difference, core.left_right.max_difference);
   EXPECT_EQ(yaml.left_right.reject_if_right_invalid, core.left_right.reject_if_right_invalid);
+  EXPECT_EQ(yaml.left_right_mode, core.left_right_mode);
   EXPECT_EQ(yaml.enable_neighbour_consistency, core.enable_neighbour_consistency);
   EXPECT_EQ(yaml.neighbour_consistency.window_radius, core.neighbour_consistency.window_radius);
   EXPECT_DOUBLE_EQ(yaml.neighbour_consistency.max_difference,

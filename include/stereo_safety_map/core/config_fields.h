@@ -84,6 +84,9 @@ const ParamFieldList<HybridSafetyMapConfig>& hybridSafetyMapFields();
 /// "bm" / "sgbm" <-> StereoMatcherType.
 const char* matcherName(StereoMatcherType type);
 bool matcherFromName(const std::string& name, StereoMatcherType* type);
+/// "full" / "opencv" <-> LeftRightMode.
+const char* leftRightModeName(LeftRightMode mode);
+bool leftRightModeFromName(const std::string& name, LeftRightMode* mode);
 
 /// The parameter texture_window_size of a pipeline configuration: 0 while the texture window
 /// follows the block size.

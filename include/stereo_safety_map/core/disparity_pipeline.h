@@ -35,6 +35,27 @@ namespace stereo_safety_map {
 
 enum class StereoMatcherType { kBlockMatching, kSemiGlobal };
 
+/// How the left-right consistency check (002 Sec. 4.1, its ref. [7]) gets the right-to-left
+/// matches.
+enum class LeftRightMode {
+  /// A full right-to-left match of the mirrored pair (for BM from the left matcher's own SAD
+  /// volume, disparity_block_matcher.h), checked with filterLeftRightInconsistent(): every rule
+  /// of LeftRightCheckConfig. The default.
+  kFull,
+  /// OpenCV's check inside the left matcher (disp12MaxDiff = floor(left_right.max_difference)):
+  /// the left match's winners compete for each right pixel on the left costs, no second match.
+  /// Cheaper but weaker: a pixel whose right pixel no winner claimed is kept
+  /// (left_right.reject_if_right_invalid does not apply), see docs/performance.md (issue 18).
+  kOpenCV,
+  /// The right-to-left match of the mirrored pair at half resolution (both images shrunk 2x by
+  /// area averaging; half the disparities, min_disparity / 2, block (block_size / 2) | 1), its
+  /// disparities doubled and each applied to the 2 x 2 full-resolution right pixels it covers,
+  /// then filterLeftRightInconsistent() with every rule of LeftRightCheckConfig as in kFull.
+  /// About 1/8 of a full matcher's work; a different right-to-left estimate, so not bit for bit
+  /// kFull (docs/performance.md, issue 18). The half-size pair must fit the matcher too.
+  kHalfResolution,
+};
+
 /// Matcher settings and one enable flag + config per post-filter. The papers used a Triclops
 /// SAD matcher (002 Sec. 2.2) and a commercial multi-scale correlation matcher (000 Sec. III) and
 /// give no matcher numbers; the defaults below are ours, for 640x480 images.
@@ -60,6 +81,7 @@ struct DisparityPipelineConfig {
   TextureValidationConfig texture;
   bool enable_left_right = true;
   LeftRightCheckConfig left_right;
+  LeftRightMode left_right_mode = LeftRightMode::kFull;
   bool enable_neighbour_consistency = true;
   NeighbourConsistencyConfig neighbour_consistency;
   bool enable_spike_removal = true;
@@ -193,11 +215,14 @@ class DisparityPipeline {
     int min_disparity = -1, num_disparities = -1, block_size = -1, pre_filter_cap = -1;
     int texture_threshold = -1, uniqueness_ratio = -1, speckle_window_size = -1;
     int speckle_range = -1, p1 = -1, p2 = -1;
+    int disp12_max_diff = -1;  ///< OpenCV's own left-right check, -1 = off (LeftRightMode)
     bool three_way = false;
     bool operator==(const MatcherKey& o) const;
   };
   static MatcherKey keyOf(const DisparityPipelineConfig& config);
-  static cv::Ptr<cv::StereoMatcher> createMatcher(const MatcherKey& key, int uniqueness_ratio);
+  // disp12_max_diff: the key's, or -1 for a matcher without OpenCV's left-right check.
+  static cv::Ptr<cv::StereoMatcher> createMatcher(const MatcherKey& key, int uniqueness_ratio,
+                                                  int disp12_max_diff);
   void ensureMatchers();
   bool toGrey(const cv::Mat& in, cv::Mat* buffer, const cv::Mat** grey, const char* which,
               std::string* error) const;
@@ -210,15 +235,27 @@ class DisparityPipeline {
   static void matchStripeTask(void* self);
   /// The one-volume matcher applies (BM, left-right check on, settings it reproduces exactly).
   bool useOneVolumeMatcher() const;
+  /// The left-right check runs on a right-to-left match of its own (not LeftRightMode::kOpenCV).
+  bool secondMatch() const {
+    return config_.enable_left_right && config_.left_right_mode != LeftRightMode::kOpenCV;
+  }
+  bool halfResolutionRight() const {
+    return config_.enable_left_right && config_.left_right_mode == LeftRightMode::kHalfResolution;
+  }
+  /// The right-to-left matcher's settings for LeftRightMode::kHalfResolution.
+  static MatcherKey halfKeyOf(const MatcherKey& key);
   BlockMatcherParams blockMatcherParams() const;  // the one-volume matcher's, from the config
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
   void renderDebugImage(const cv::Mat& disparity);
 
   DisparityPipelineConfig config_;
   MatcherKey key_;
+  MatcherKey right_key_;  ///< the right-to-left matcher's (key_, or its half-resolution one)
   cv::Ptr<cv::StereoMatcher> left_matcher_;
   cv::Ptr<cv::StereoMatcher> right_matcher_;
   cv::Ptr<cv::StereoMatcher> plain_matcher_;  ///< debug: left matcher without uniqueness test
+  /// debug, LeftRightMode::kOpenCV: the left matcher without its left-right check
+  cv::Ptr<cv::StereoMatcher> unchecked_matcher_;
   int matcher_builds_ = 0;
 
   // Buffers reused between frames.
@@ -226,10 +263,11 @@ class DisparityPipeline {
   cv::Mat raw_;                             ///< CV_16S matcher output (1/16 px)
   cv::Mat mirrored_left_, mirrored_right_;  ///< mirrored, padded pair for right-to-left
   cv::Mat raw_mirrored_, raw_right_;
+  cv::Mat half_left_, half_right_, half_right_disparity_;  ///< LeftRightMode::kHalfResolution
   cv::Mat right_disparity_;
   bool right_ran_ = false;  ///< right_disparity_ belongs to the last compute()
   cv::Mat empty_;
-  cv::Mat plain_disparity_;
+  cv::Mat plain_disparity_, unchecked_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
   LeftRightBlockMatcher block_matcher_;  ///< left and right disparities from one cost volume

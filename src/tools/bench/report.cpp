@@ -75,6 +75,19 @@ void computeTargets(Bench* b) {
       r.limit_digits = 1;
       targets.push_back(r);
     }
+    // The SGBM ratio with the left-right check's cheaper modes (issue 18; not bit for bit).
+    for (const auto& m : {std::make_pair("half", "disp.ours_sgbm_half"),
+                          std::make_pair("opencv", "disp.ours_sgbm_opencv")}) {
+      if (std::isnan(med(m.second, false))) continue;  // not measured
+      Target r(std::string("disparity SGBM + all filters, left_right_mode ") + m.first +
+                   " / OpenCV StereoSGBM alone (same frames, same run)",
+               "x");
+      r.wall = med(m.second, false) / med("disp.opencv_sgbm", false);
+      r.cpu = med(m.second, true) / med("disp.opencv_sgbm", true);
+      r.limit = 1.3;
+      r.limit_digits = 1;
+      targets.push_back(r);
+    }
   }
 }
 

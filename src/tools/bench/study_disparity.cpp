@@ -75,6 +75,10 @@ void studyDisparity(Bench* b) {
     ssm::DisparityPipelineConfig par_cfg = bm_cfg;
     par_cfg.parallel_left_right = true;
     ssm::DisparityPipeline ours_par(par_cfg);
+    // The same for SGBM: its second full matcher beside the first (issue 18), same output.
+    ssm::DisparityPipelineConfig sgbm_par_cfg = par_cfg;
+    sgbm_par_cfg.matcher = ssm::StereoMatcherType::kSemiGlobal;
+    ssm::DisparityPipeline ours_sgbm_par(sgbm_par_cfg);
     {
       cpu_set_t pinned_mask;
       CPU_ZERO(&pinned_mask);
@@ -83,6 +87,7 @@ void studyDisparity(Bench* b) {
       cv::Mat d;
       std::string e;
       ours_par.compute(measured.front().left, measured.front().right, &d, nullptr, &e);
+      ours_sgbm_par.compute(measured.front().left, measured.front().right, &d, nullptr, &e);
       sched_setaffinity(0, sizeof(pinned_mask), &pinned_mask);
     }
     cv::Mat ours_par_out;
@@ -139,6 +144,29 @@ void studyDisparity(Bench* b) {
 #endif
     variants.push_back(
         {"disp.ours_sgbm", "ours: DisparityPipeline SGBM + all filters", "ours", ours(sgbm_cfg)});
+    // Issue 18: the left-right check's other modes (not bit for bit the default).
+    cv::Mat ours_sgbm_par_out;
+    variants.push_back({"disp.ours_sgbm_parallel",
+                        "ours: SGBM + all filters, right-to-left matcher on a second thread "
+                        "(parallel_left_right; CPU: measuring thread only)",
+                        "ours", [&](const Frame& f, cv::Mat* out) {
+                          std::string e;
+                          if (!ours_sgbm_par.compute(f.left, f.right,
+                                                     out != nullptr ? out : &ours_sgbm_par_out,
+                                                     nullptr, &e))
+                            throw std::runtime_error("DisparityPipeline: " + e);
+                        }});
+    ssm::DisparityPipelineConfig sgbm_half_cfg = sgbm_cfg;
+    sgbm_half_cfg.left_right_mode = ssm::LeftRightMode::kHalfResolution;
+    variants.push_back({"disp.ours_sgbm_half",
+                        "ours: SGBM + all filters, left_right_mode half (right-to-left match at "
+                        "half resolution)",
+                        "ours", ours(sgbm_half_cfg)});
+    ssm::DisparityPipelineConfig sgbm_opencv_cfg = sgbm_cfg;
+    sgbm_opencv_cfg.left_right_mode = ssm::LeftRightMode::kOpenCV;
+    variants.push_back({"disp.ours_sgbm_opencv",
+                        "ours: SGBM + all filters, left_right_mode opencv (no second match)",
+                        "ours", ours(sgbm_opencv_cfg)});
     variants.push_back({"disp.opencv_sgbm", "OpenCV StereoSGBM::compute alone (same settings)",
                         "peer", raw(sgbm_cfg)});
 #if SSM_BENCH_HAVE_SIP
@@ -207,6 +235,12 @@ void studyDisparity(Bench* b) {
     comparisons.push_back({"disp.ours_bm", "disp.opencv_bm", "disparity BM + filters"});
     comparisons.push_back({"disp.ours_bm_nofilters", "disp.opencv_bm", "disparity BM, no filters"});
     comparisons.push_back({"disp.ours_sgbm", "disp.opencv_sgbm", "disparity SGBM + filters"});
+    comparisons.push_back(
+        {"disp.ours_sgbm_half", "disp.opencv_sgbm", "disparity SGBM + filters, left-right half"});
+    comparisons.push_back({"disp.ours_sgbm_parallel", "disp.opencv_sgbm",
+                           "disparity SGBM + filters, right-to-left on a second thread (wall)"});
+    comparisons.push_back({"disp.ours_sgbm_opencv", "disp.opencv_sgbm",
+                           "disparity SGBM + filters, left-right opencv"});
     if (sip_fn) {
       comparisons.push_back({"disp.ours_bm", "disp.sip_bm", "disparity BM + filters"});
       comparisons.push_back({"disp.ours_bm", "disp.sip_bm_own_filters", "disparity BM + filters"});
