@@ -129,7 +129,7 @@ std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessor
   if (name == "paper") {
     v->config.mapper = ssm::paperFaithful(base.mapper);
     v->config.row_gap_fill.enabled = false;  // the processor's "(ours)" switches
-    v->config.obstacle_cue = false;           // 000 alone: no cue from 003's detector
+    v->config.obstacle_cue = false;          // 000 alone: no cue from 003's detector
     return "";
   }
   if (name == "no_margin") {

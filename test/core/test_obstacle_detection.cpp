@@ -256,9 +256,11 @@ ObstacleDetectionResult detect(const Rendered& img, const Camera& cam,
   return res;
 }
 
+// 003's Definition 1 with its constant thresholds (no stereo noise margin) and no Sec. 5 rules.
 ObstacleDetectionConfig noRejection() {
   ObstacleDetectionConfig cfg;
   cfg.reject_false_obstacles = false;
+  cfg.noise_sigmas = 0.0;
   return cfg;
 }
 
@@ -1047,7 +1049,8 @@ TEST(ObstacleDetectionNoiseMargin, FloorNoiseAtRangeIsNoObstacleTheBoxStillIs) {
   EXPECT_GT(box_margin, cv::countNonZero(box_px) / 3) << box_paper;
   // With 003's Sec. 5 rules on (the defaults), what a user gets: obstacles all over the floor
   // without the margin, one on the box with it.
-  ObstacleDetectionConfig rules;
+  ObstacleDetectionConfig rules;  // the defaults, 003's constants
+  rules.noise_sigmas = 0.0;
   ObstacleDetectionConfig rules_margin = rules;
   rules_margin.noise_sigmas = 2.0;
   auto accepted = [&](const ObstacleDetectionConfig& cfg, int* on_box, int* elsewhere) {

@@ -367,6 +367,8 @@ TEST(StereoFrameProcessor, ObstacleCueIsAnOptionalStageThatOnlyAddsNonGround) {
   StereoFrameProcessorConfig c;
   c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
   c.mapper.skip_stationary_frames = false;
+  EXPECT_TRUE(c.obstacle_cue) << "on by default (README, \"Obstacle cue\")";
+  c.obstacle_cue = false;
   StereoFrameProcessor off(c);
   EXPECT_FALSE(off.addObstacleCue(1.0, {Eigen::Vector3f(2.0f, 0.0f, 0.3f)}));
   c.obstacle_cue = true;
