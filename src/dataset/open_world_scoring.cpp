@@ -12,6 +12,9 @@ namespace dataset {
 
 namespace {
 
+// Lines naming forgotten cells kept per scene (SceneScore::forgotten).
+constexpr std::size_t kMaxForgottenLines = 12;
+
 std::int64_t cellKey(int u, int v) {
   return (static_cast<std::int64_t>(u) << 32) ^ static_cast<std::uint32_t>(v);
 }
@@ -104,6 +107,7 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   obstacle_maps_missed_lenient += o.obstacle_maps_missed_lenient;
   obstacle_safe_cells += o.obstacle_safe_cells;
   misses.insert(misses.end(), o.misses.begin(), o.misses.end());
+  forgotten.insert(forgotten.end(), o.forgotten.begin(), o.forgotten.end());
   detection += o.detection;
   return *this;
 }
@@ -215,6 +219,8 @@ OpenWorldScorer::OpenWorldScorer(const Scene& scene, const GroundTruthMap& gt,
   }
   obstacles_ = std::move(kept);
   for (int& g : group_of_primitive_)
+    if (g >= 0) g = renumber[g];
+  for (std::int32_t& g : obstacle_of_)
     if (g >= 0) g = renumber[g];
   variants_.resize(variants);
   for (VariantState& s : variants_) {
@@ -401,7 +407,18 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
           const auto it = state.non_ground.find(key);
           if (it != state.non_ground.end()) {
             ++s->forgotten_events;
-            if (it->second == 0) ++s->forgotten_cells;
+            if (it->second == 0) {
+              ++s->forgotten_cells;
+              if (s->forgotten.size() < kMaxForgottenLines) {
+                const int o = obstacle_of_[g];
+                char line[256];
+                std::snprintf(line, sizeof(line),
+                              "%s at t = %.1f s: cell (%.2f, %.2f) %.2f m from the robot -> %s",
+                              o >= 0 ? obstacles_[o].group.c_str() : "(solid)", t, w.x(), w.y(),
+                              (w - robot).norm(), toString(l));
+                s->forgotten.push_back(line);
+              }
+            }
             it->second = 1;
           }
         }

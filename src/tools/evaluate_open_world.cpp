@@ -372,6 +372,8 @@ int main(int argc, char** argv) {
                          s.obstacles_in_view);
             for (const std::string& m : s.misses)
               std::fprintf(stderr, "        missed %s\n", m.c_str());
+            for (const std::string& m : s.forgotten)
+              std::fprintf(stderr, "        forgotten %s\n", m.c_str());
           }
         }
       }

@@ -11,7 +11,10 @@
 // safety map on its disparity, the gate on the map): every frame's map is published, in odom, with
 // the chair's cell Level; the gate answers a command. And the map of dataset 1 has potential
 // drop-off edges (000 Sec. VI) where the plaza's edge is, lethal in the OccupancyGrid, and drawn
-// by their own rviz marker (planes, namespace drop_off_edges).
+// by their own rviz marker (planes, namespace drop_off_edges). And robot.launch's obstacle
+// detector (paper 003, obstacles:=true by default, with its stereo noise margin noise_sigmas 1)
+// publishes the safety map's obstacle cue: raised points on the centre rail, none on the open
+// plaza the chair drives over.
 #include "disparity_test_util.h"
 #include "sim_clock.h"
 #include "test_util.h"
@@ -23,6 +26,8 @@
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -34,7 +39,9 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
 #include <string>
+#include <vector>
 
 using stereo_safety_map::GateStateMsg;
 using stereo_safety_map::SafetyMapMsg;
@@ -58,6 +65,48 @@ constexpr int kStandingFrames = 10;
 constexpr int kWarmUpFrames = 60;  // at most, at the start, until the first map comes back
 constexpr double kEdgeX = 4.0;
 
+// Every raised obstacle point robot.launch's obstacle detector publishes on /obstacles (odom).
+class ObstaclePoints {
+ public:
+  ObstaclePoints(ros::NodeHandle& nh, const std::string& topic) {
+    sub_ = nh.subscribe<sensor_msgs::PointCloud2>(
+        topic, 50, [this](const sensor_msgs::PointCloud2ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          ++clouds_;
+          if (m->header.frame_id != kOdom) ++wrong_frame_;
+          if (m->width * m->height == 0) return;
+          sensor_msgs::PointCloud2ConstIterator<float> x(*m, "x"), y(*m, "y"), z(*m, "z");
+          for (; x != x.end(); ++x, ++y, ++z)
+            points_.emplace_back(*x, *y, *z);
+        });
+  }
+  std::vector<Eigen::Vector3f> points() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return points_;
+  }
+  int clouds() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return clouds_;
+  }
+  int wrongFrame() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return wrong_frame_;
+  }
+  void reset() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    points_.clear();
+    clouds_ = 0;
+    wrong_frame_ = 0;
+  }
+
+ private:
+  ros::Subscriber sub_;
+  mutable std::mutex mutex_;
+  std::vector<Eigen::Vector3f> points_;
+  int clouds_ = 0;
+  int wrong_frame_ = 0;
+};
+
 class RobotLaunch : public ::testing::Test {
  protected:
   // The drive runs once; the tests read what it left.
@@ -70,9 +119,11 @@ class RobotLaunch : public ::testing::Test {
     planes_ = new test_util::Latest<visualization_msgs::MarkerArray>(*nh_, "/planes");
     states_ = new test_util::Latest<GateStateMsg>(*nh_, "/gate_state");
     cmd_pub_ = new ros::Publisher(nh_->advertise<geometry_msgs::Twist>("/cmd_vel_in", 10));
+    obstacles_ = new ObstaclePoints(*nh_, "/obstacles");
     drive();
   }
   static void TearDownTestSuite() {
+    delete obstacles_;
     delete cmd_pub_;
     delete states_;
     delete planes_;
@@ -142,6 +193,7 @@ class RobotLaunch : public ::testing::Test {
       ++warm_up_frames_;
     }
     if (!ready_) return;
+    obstacles_->reset();  // only the counted frames' obstacles
     const int moving = static_cast<int>((kX1 - kX0) / kStep + 0.5);
     for (int frame = 0; frame <= moving + kStandingFrames && ros::ok(); ++frame) {
       const double x = kX0 + kStep * std::min(frame, moving);
@@ -159,6 +211,7 @@ class RobotLaunch : public ::testing::Test {
   static test_util::Latest<visualization_msgs::MarkerArray>* planes_;
   static test_util::Latest<GateStateMsg>* states_;
   static ros::Publisher* cmd_pub_;
+  static ObstaclePoints* obstacles_;
   static std::string scene_error_;
   static double camera_tf_error_;
   static bool subscribed_;
@@ -176,6 +229,7 @@ test_util::Latest<SafetyMapMsg>* RobotLaunch::labels_ = nullptr;
 test_util::Latest<visualization_msgs::MarkerArray>* RobotLaunch::planes_ = nullptr;
 test_util::Latest<GateStateMsg>* RobotLaunch::states_ = nullptr;
 ros::Publisher* RobotLaunch::cmd_pub_ = nullptr;
+ObstaclePoints* RobotLaunch::obstacles_ = nullptr;
 std::string RobotLaunch::scene_error_;
 double RobotLaunch::camera_tf_error_ = -1.0;
 bool RobotLaunch::subscribed_ = false;
@@ -276,6 +330,36 @@ TEST_F(RobotLaunch, Dataset1MapHasDropOffEdgesAtThePlazaEdge) {
     if (m.ns == "drop_off_edges") tiles += m.points.size();
   }
   EXPECT_EQ(tiles, drop_cells);
+}
+
+TEST_F(RobotLaunch, ObstacleDetectorMarksTheRailNotTheOpenPlaza) {
+  ASSERT_EQ(scene_error_, "");
+  ASSERT_TRUE(ready_);
+  // The last frame's cloud may still be on its way.
+  test_util::waitFor([&] { return obstacles_->clouds() >= frames_; }, kWaitS);
+  const std::vector<Eigen::Vector3f> points = obstacles_->points();
+  int rail = 0, plaza = 0;
+  for (const Eigen::Vector3f& p : points) {
+    // The centre rail (scenes/dataset1_rail_dropoff_ramp.yaml): y = -0.15 from x = 3, 0.9 m
+    // high on the plaza, then down along the ramp; a voxel of stereo error around it.
+    if (p.x() > 2.8 && p.x() < 5.0 && std::abs(p.y() + 0.15) < 0.3 && p.z() > 0.05 &&
+        p.z() < 1.05) {
+      ++rail;
+    }
+    // The open plaza between the rail and the bollard / bin on the left (y = 3.2, 3.6), up to
+    // its edge: nothing stands there, so every point is the floor's stereo noise.
+    if (p.x() > 0.3 && p.x() < kEdgeX - 0.2 && p.y() > 0.3 && p.y() < 2.8) ++plaza;
+  }
+  std::printf("obstacle cue: %d clouds, %zu raised points, %d on the rail, %d on the open plaza\n",
+              obstacles_->clouds(), points.size(), rail, plaza);
+  RecordProperty("obstacle_points_rail", rail);
+  RecordProperty("obstacle_points_open_plaza", plaza);
+  // One cloud per frame, also when empty; lockstep waits for the map only, so the detector's
+  // one-slot queue may drop a frame under load.
+  EXPECT_GE(obstacles_->clouds(), frames_ * 3 / 4);
+  EXPECT_EQ(obstacles_->wrongFrame(), 0) << "the cue is in the fixed frame (odom)";
+  EXPECT_GE(rail, 50) << "the centre rail in front of the chair is an obstacle";
+  EXPECT_LE(plaza, rail / 50) << "the open plaza's floor is no obstacle";
 }
 
 }  // namespace

@@ -109,8 +109,9 @@ struct SceneScore {
   int obstacle_maps_lenient = 0;
   int obstacle_maps_missed_lenient = 0;
   int obstacle_safe_cells = 0;  ///< cells inside an obstacle's footprint labelled safe (lenient)
-  std::vector<std::string> misses;  ///< a few lines naming missed obstacles (first per obstacle)
-  DetectionScore detection;         ///< when the variant ran 003's detector
+  std::vector<std::string> misses;     ///< a few lines naming missed obstacles (first per obstacle)
+  std::vector<std::string> forgotten;  ///< a few lines naming forgotten cells (first per cell)
+  DetectionScore detection;            ///< when the variant ran 003's detector
 
   SceneScore& operator+=(const SceneScore& o);
 };
@@ -174,7 +175,8 @@ class OpenWorldScorer {
   const GroundTruthMap* local_ = nullptr;
   std::vector<HazardClass> classes_;
   std::vector<std::uint8_t> seen_;         // per GT cell: ground seen by the camera
-  std::vector<std::int32_t> obstacle_of_;  // per GT cell: index into obstacles_, -1 none
+  std::vector<std::int32_t> obstacle_of_;  // per GT cell: index into obstacles_ (the kept
+                                           // ones), -1 none
   std::vector<std::uint8_t> in_view_now_;  // per obstacle: in view within R_max, last frame
   // The last observed frame (scoreDetection): pose, camera, rendered depth and ids.
   Eigen::Isometry3d frame_T_world_camera_ = Eigen::Isometry3d::Identity();
