@@ -34,6 +34,9 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr float kVerticalTan2 = 1e12f;
 constexpr std::uint8_t kMarkObstacle = 1;
 constexpr std::uint8_t kMarkRaised = 2;
+// Below 1 so that a bound built from one point's error stays under the float value of the
+// pair's error that clearOfNoise computes (sqrt(a^2 + b^2) >= a up to rounding).
+constexpr float kMarginBound = 0.999f;
 
 inline int floorDiv(int a, int b) {
   return a >= 0 ? a / b : -((-a + b - 1) / b);
@@ -294,6 +297,8 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
   empty.xmin = empty.ymin = empty.zmin = empty.depth_min = empty.rx_min = empty.ry_min = kInf;
   empty.xmax = empty.ymax = empty.zmax = empty.depth_max = empty.rx_max = empty.ry_max = -kInf;
   empty.count = 0;
+  // The margin's bounds start at +inf only when there are errors to take the minimum of.
+  empty.ez_min = empty.eh_min = noise_scale_ > 0.0f ? kInf : 0.0f;
   tiles_.assign(static_cast<std::size_t>(tiles_r_) * tiles_c_, empty);
 
   const Eigen::Matrix3f R = T.linear();
@@ -321,6 +326,7 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
       const int c1 = std::min(cols_, c0 + kTile);
       float bx0 = kInf, bx1 = -kInf, by0 = kInf, by1 = -kInf, bz0 = kInf, bz1 = -kInf;
       float d0 = kInf, d1 = -kInf, rx0 = kInf, rx1 = -kInf, ry0 = kInf, ry1 = -kInf;
+      float ez0 = kInf, eh0 = kInf;
       int count = 0;
       for (int c = c0; c < c1; ++c) {
         const float X = in[c][0], Y = in[c][1], Z = in[c][2];
@@ -346,6 +352,8 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
           const float across2 = std::max(0.0f, X * X + Y * Y + Z * Z - up * up);
           ez_[base + c] = std::fabs(up) * e;
           eh_[base + c] = std::sqrt(across2) * e;
+          ez0 = std::min(ez0, ez_[base + c]);
+          eh0 = std::min(eh0, eh_[base + c]);
         }
         const float inv_z = 1.0f / Z;
         const float rx = X * inv_z, ry = Y * inv_z;
@@ -377,6 +385,10 @@ std::size_t ObstacleDetector::prepare(const cv::Mat& range_image, const Eigen::I
       tl.rx_max = std::max(tl.rx_max, rx1);
       tl.ry_min = std::min(tl.ry_min, ry0);
       tl.ry_max = std::max(tl.ry_max, ry1);
+      if (noise_scale_ > 0.0f) {
+        tl.ez_min = std::min(tl.ez_min, ez0);
+        tl.eh_min = std::min(tl.eh_min, eh0);
+      }
       tl.count += count;
     }
   }
@@ -558,6 +570,8 @@ void ObstacleDetector::searchAllPairs(float f) {
           const int ip = r * cols_ + c;
           const float zp = z_[ip];
           if (zp != zp) continue;  // missing
+          // No rise under H_max clears p's own error (findPartner): p has no partner.
+          if (noise_scale_ > 0.0f && !(ht + ez_[ip] * kMarginBound < h_max)) continue;
           const float xp = x_[ip], yp = y_[ip], depth = depth_[ip];
           const int up_p = windowPx(B.m_up, depth, rows_);
           const int side_p = kColumnOnly ? 0 : windowPx(B.m_side, depth, cols_);
@@ -611,24 +625,40 @@ template <bool kBelow, bool kColumnOnly>
 bool ObstacleDetector::findPartner(const std::vector<Candidate>& tiles, int* hint, int ip, int s) {
   const float xp = x_[ip], yp = y_[ip], zp = z_[ip];
   const int col_p = ip % cols_;
-  const float ht = ht_, h_max = hmax_, tan2 = tan2_;
+  // The noise margin (clearOfNoise) of any pair with p moves p's own error at least: its rise
+  // loses at least p's vertical error, its run gains at least p's horizontal one. Pruning with
+  // these bounds drops no pair the margin would keep (kMarginBound keeps the bound below the
+  // float value clearOfNoise computes), and p beyond the range where the margin leaves no rise
+  // under H_max has no partner at all: the far floor is not searched.
+  const bool margin = noise_scale_ > 0.0f;
+  const float ez_p = margin ? ez_[ip] : 0.0f, eh_p = margin ? eh_[ip] : 0.0f;
+  const float ht = ht_ + ez_p * kMarginBound, h_max = hmax_, tan2 = tan2_;
+  if (!(ht < h_max)) return false;
   const int n = static_cast<int>(tiles.size());
   const int row_step = s * cols_;
   // Can C (a tile or a header's union of tiles) hold a point H_T..H_max below (above) p, steep
   // enough from p?
+  // With the margin, a pair with some point of C loses at least the error of p and of C's
+  // smallest: sqrt(ez_p^2 + ez_min^2) of its rise, sqrt(eh_p^2 + eh_min^2) added to its run.
   auto feasible = [&](const Candidate& C) {
+    const float sz = margin ? kMarginBound * std::sqrt(ez_p * ez_p + C.ez_min * C.ez_min) : 0.0f;
     float reach;
     if (kBelow) {
       const float drop = zp - C.zmin;
-      if (drop <= ht || zp - C.zmax >= h_max) return false;
-      reach = std::min(drop, h_max);
+      if (drop <= ht_ + sz || zp - C.zmax >= h_max) return false;
+      reach = std::min(drop, h_max) - sz;
     } else {
       const float rise = C.zmax - zp;
-      if (rise <= ht || C.zmin - zp >= h_max) return false;
-      reach = std::min(rise, h_max);
+      if (rise <= ht_ + sz || C.zmin - zp >= h_max) return false;
+      reach = std::min(rise, h_max) - sz;
     }
     const float gx = std::max(0.0f, std::max(C.xmin - xp, xp - C.xmax));
     const float gy = std::max(0.0f, std::max(C.ymin - yp, yp - C.ymax));
+    if (margin) {
+      const float run = std::sqrt(gx * gx + gy * gy) +
+                        kMarginBound * std::sqrt(eh_p * eh_p + C.eh_min * C.eh_min);
+      return tan2 * run * run < reach * reach;
+    }
     return tan2 * (gx * gx + gy * gy) < reach * reach;
   };
   // The sampled pixels of a tile (a lattice of step s, fixed for the whole group).
@@ -749,8 +779,9 @@ void ObstacleDetector::searchFirstPartner(float f) {
       const int bc_lo = tc_lo / kBlock, bc_hi = tc_hi / kBlock;
       // Each block that passes is followed by its tiles that pass, behind a header entry whose
       // bounds are their union, so that a point far from all of them skips them at once.
-      auto open_header = [](std::vector<Candidate>& list) {
-        list.push_back(Candidate{kInf, -kInf, kInf, -kInf, kInf, -kInf, 0, 0, 0, 0, 0});
+      auto open_header = [this](std::vector<Candidate>& list) {
+        const float e0 = noise_scale_ > 0.0f ? kInf : 0.0f;
+        list.push_back(Candidate{kInf, -kInf, kInf, -kInf, kInf, -kInf, 0, 0, 0, 0, 0, e0, e0});
         return list.size() - 1;
       };
       auto close_header = [](std::vector<Candidate>& list, std::size_t h) {
@@ -767,6 +798,8 @@ void ObstacleDetector::searchFirstPartner(float f) {
           hd.ymax = std::max(hd.ymax, list[k].ymax);
           hd.zmin = std::min(hd.zmin, list[k].zmin);
           hd.zmax = std::max(hd.zmax, list[k].zmax);
+          hd.ez_min = std::min(hd.ez_min, list[k].ez_min);
+          hd.eh_min = std::min(hd.eh_min, list[k].eh_min);
         }
       };
       auto consider_block = [&](int ur, int uc) {
@@ -790,8 +823,9 @@ void ObstacleDetector::searchFirstPartner(float f) {
             const int col_b = std::min(cols_, vc * kTile + kTile) - 1;
             if (row_a > row_b || col_a > col_b) continue;
             const int row_last = row_b - (row_b - row_a) % s;
-            const Candidate cand{C.xmin, C.xmax,        C.ymin,           C.ymax, C.zmin, C.zmax,
-                                 0,      row_a * cols_, row_last * cols_, col_a,  col_b};
+            const Candidate cand{C.xmin, C.xmax,   C.ymin,        C.ymax,           C.zmin,
+                                 C.zmax, 0,        row_a * cols_, row_last * cols_, col_a,
+                                 col_b,  C.ez_min, C.eh_min};
             if (tb) below_tiles_.push_back(cand);
             if (ta) above_tiles_.push_back(cand);
           }

@@ -115,7 +115,8 @@ ObstacleDetectionRos::ObstacleDetectionRos(ros::NodeHandle nh, ros::NodeHandle p
   if (!acceptParams(err, obstacleDetectionParameterNames())) return;
   detector_ = std::make_unique<ObstacleDetector>(detector_config_);  // validated: does not throw
 
-  startWorker([this](const Frame& frame) { processFrame(frame); }, [] { return 0.0; });
+  startWorker([this](const Frame& frame) { processFrame(frame); },
+              [this] { return ros_config_.max_rate; });
   setUpInputs();
 
   // Advertise last: connectCb may run as soon as a publisher exists.

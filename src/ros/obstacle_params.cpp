@@ -51,6 +51,10 @@ const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields() {
         .oneOf({"3d", "columnwise"})
         .doc("OD / OS Algorithm 2 (003 Sec. 2-3), or the column-wise baseline (003 Sec. 1, 6).");
     addSyncFields(l);
+    addMaxRateField(l).doc(
+        "most frames processed per second, 0 = every frame (not in 003); newer frames replace a "
+        "waiting one. 15: the safety map's cue lives 1 s, and the default graph keeps up with a "
+        "30 Hz camera on two cores.");
     l.add("min_depth", &R::min_depth)
         .atLeast(0)
         .unit("m")
@@ -103,6 +107,8 @@ std::string ObstacleDetectionRosConfig::validate() const {
     os << "method = '" << method << "', must be '3d' or 'columnwise'";
   } else if (!queueSizeError(queue_size).empty()) {
     os << queueSizeError(queue_size);
+  } else if (!maxRateError(max_rate).empty()) {
+    os << maxRateError(max_rate);
   } else if (!std::isfinite(min_depth) || min_depth < 0.0) {
     os << "min_depth = " << min_depth << ", must be >= 0 m";
   } else if (!std::isfinite(max_depth) || max_depth <= min_depth || max_depth > 1000.0) {

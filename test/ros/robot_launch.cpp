@@ -354,9 +354,10 @@ TEST_F(RobotLaunch, ObstacleDetectorMarksTheRailNotTheOpenPlaza) {
               obstacles_->clouds(), points.size(), rail, plaza);
   RecordProperty("obstacle_points_rail", rail);
   RecordProperty("obstacle_points_open_plaza", plaza);
-  // One cloud per frame, also when empty; lockstep waits for the map only, so the detector's
-  // one-slot queue may drop a frame under load.
-  EXPECT_GE(obstacles_->clouds(), frames_ * 3 / 4);
+  // One cloud per processed frame, also when empty. The detector takes at most max_rate (15 Hz,
+  // wall clock) frames a second and lockstep waits for the map only, so frames that arrive
+  // faster replace a waiting one.
+  EXPECT_GE(obstacles_->clouds(), frames_ / 4);
   EXPECT_EQ(obstacles_->wrongFrame(), 0) << "the cue is in the fixed frame (odom)";
   EXPECT_GE(rail, 50) << "the centre rail in front of the chair is an obstacle";
   EXPECT_LE(plaza, rail / 50) << "the open plaza's floor is no obstacle";

@@ -258,12 +258,14 @@ class ObstacleDetector {
     float rx_min, rx_max, ry_min, ry_max;      // ray slopes x/z, y/z
     int count;                                 // valid points
     float m_up, m_side;                        // window extents per unit f / depth (Sec. 4.1)
+    float ez_min, eh_min;  // smallest noise-margin errors of its points (0 when the margin is off)
   };
   struct Candidate {  // a tile that may hold a partner: bounds and sampled pixels
     float xmin, xmax, ymin, ymax, zmin, zmax;
-    int skip;    // > 0: header of the next `skip` entries (bounds = their union)
-    int r0, r1;  // first and last sampled row, as row * cols
-    int c0, c1;  // first sampled column, last column
+    int skip;              // > 0: header of the next `skip` entries (bounds = their union)
+    int r0, r1;            // first and last sampled row, as row * cols
+    int c0, c1;            // first sampled column, last column
+    float ez_min, eh_min;  // smallest noise-margin errors of its points (0: margin off)
   };
   struct Accumulator {
     int count, raised;
