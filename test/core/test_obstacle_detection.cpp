@@ -1099,6 +1099,40 @@ TEST(ObstacleDetectionNoiseMargin, MarksAreASubsetOfTheConstantTestsAndNearObsta
             cv::countNonZero(pole_px) * 97 / 100);
 }
 
+TEST(ObstacleDetectionNoiseMargin, FloorBeyondTheMarginsReachIsNotSearched) {
+  // The floor from 5 to 8 m (nearer points missing) with the disparity noise of a 0.12 m camera.
+  // There k = 2 sigma of a pair's horizontal error alone exceeds H_max (0.3 m), so no pair can
+  // stay steeper than 45 deg under the margin: the search prunes every pixel and tile by the
+  // margin's bounds and tests no pair at all. 003's constant test searches the same image.
+  const Camera cam = makeCamera(320, 240, 300.0f, 1.1f, 15.0f);
+  const float b = 0.12f;
+  Rendered img = render({floorShape()}, cam, 8.0f);
+  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, 11);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  int kept = 0;
+  for (int v = 0; v < img.xyz.rows; ++v) {
+    for (int u = 0; u < img.xyz.cols; ++u) {
+      cv::Vec3f& p = img.xyz.at<cv::Vec3f>(v, u);
+      if (!(p[2] >= 5.0f)) {
+        p = cv::Vec3f(nan, nan, nan);
+      } else {
+        ++kept;
+      }
+    }
+  }
+  ASSERT_GT(kept, 5000);
+  ObstacleDetectionConfig paper = noRejection();
+  ObstacleDetectionConfig margin = paper;
+  margin.noise_sigmas = 2.0;
+  ObstacleDetector det_paper(paper), det_margin(margin);
+  ObstacleDetectionResult res_paper, res_margin;
+  ASSERT_TRUE(det_paper.detect(img.xyz, cam.f, cam.T, &res_paper, b));
+  ASSERT_TRUE(det_margin.detect(img.xyz, cam.f, cam.T, &res_margin, b));
+  EXPECT_GT(res_paper.pairs_tested, static_cast<std::size_t>(kept)) << "a search to prune";
+  EXPECT_EQ(res_margin.pairs_tested, 0u);
+  EXPECT_EQ(cv::countNonZero(res_margin.mask), 0);
+}
+
 TEST(ObstacleDetection, RaisedObstaclePointsAreTheCue) {
   const Camera cam = makeCamera();
   const Rendered img = render({floorShape(), pole(2.5f, 0.3f, 0.05f, 1.0f)}, cam);
