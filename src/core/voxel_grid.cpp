@@ -578,6 +578,13 @@ bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int
   const std::int16_t* const column = lop_.data() + slot_u_[ru] + slot_v_[rv];
   const std::uint32_t* const slot_w = slot_w_.data();
   const int occ = config_.occ_threshold;
+  // Most columns of the window hold no occupied voxel at all: one pass over the whole column's
+  // contiguous storage, in memory order (the compiler vectorises it), answers that before the
+  // ring-ordered scan below. No voxel of the column occupied means none in [lo, hi] either.
+  std::int16_t peak = std::numeric_limits<std::int16_t>::min();
+  for (std::int64_t k = 0; k < nw_; ++k)
+    peak = std::max(peak, column[k]);
+  if (peak < occ) return false;
   std::int64_t top = hi;
   while (top >= lo && column[slot_w[top]] < occ)
     --top;
