@@ -30,9 +30,9 @@ struct ObstacleDetectionRosConfig {
   int queue_size = 5;                ///< subscriber / tf filter / sync queue [messages]
   bool approximate_sync = false;     ///< approximate DisparityImage-CameraInfo sync
   /// Most frames processed per second [Hz]; 0 = every frame. 15 by default: the safety map's
-  /// cue lives 1 s (obstacle_cue_lifetime), so 15 cues a second are as good as 30, and the
-  /// detector's half of a core is what keeps the default graph at a 30 Hz camera's rate on two
-  /// cores (issue 18; README, Performance).
+  /// cue lives 1 s (obstacle_cue_lifetime), so 15 cues a second are as good as 30, and with
+  /// the detector at half rate the default graph lost no frame of a 30 Hz camera on two cores
+  /// (its p95 delay still exceeds 50 ms there; issue 18, README Performance).
   double max_rate = 15.0;
   double min_depth = 0.2;  ///< range image: nearer points are missing [m] (the grid's min_range)
   double max_depth = 8.0;  ///< range image: farther points are missing [m] (the grid's max_range)
