@@ -28,7 +28,23 @@ std::string FrameLevellingConfig::validate() const {
     return "relevel_min_extent must be in [0, 100] m";
   }
   if (stride < 1 || stride > 100) return "relevel_stride must be in [1, 100]";
+  if (!std::isfinite(near_radius) || near_radius < 0.0 || near_radius > 10.0) {
+    return "relevel_near_radius must be in [0, 10] m";
+  }
+  if (filter_frames < 0 || filter_frames > 1000)
+    return "relevel_filter_frames must be in [0, 1000]";
   return "";
+}
+
+Eigen::Isometry3f levelledPose(const Eigen::Isometry3f& T_fixed_sensor, double roll, double pitch,
+                               double dz) {
+  const Eigen::Matrix3d dR = (Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()) *
+                              Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()))
+                                 .toRotationMatrix();
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = dR * T_fixed_sensor.linear().cast<double>();
+  T.translation() = T_fixed_sensor.translation().cast<double>() + Eigen::Vector3d(0.0, 0.0, dz);
+  return T.cast<float>();
 }
 
 bool levelFrame(const std::vector<Eigen::Vector3f>& points_sensor,
@@ -108,13 +124,7 @@ bool levelFrame(const std::vector<Eigen::Vector3f>& points_sensor,
     return false;
   }
   // The corrected pose: rotate about the camera, then offset vertically.
-  const Eigen::Matrix3d dR = (Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()) *
-                              Eigen::AngleAxisd(bb, Eigen::Vector3d::UnitY()))
-                                 .toRotationMatrix();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = dR * R;
-  T.translation() = c + Eigen::Vector3d(0.0, 0.0, dz);
-  *T_corrected = T.cast<float>();
+  *T_corrected = levelledPose(T_fixed_sensor, a, bb, dz);
   // Residuals after the correction (the first pass's points).
   double sum2 = 0.0;
   int n = 0;

@@ -159,6 +159,26 @@ double estimateFocalLength(const cv::Mat& range_image) {
   return std::isfinite(f) && f > 0.0 ? f : 0.0;
 }
 
+void decimateRangeImage(const cv::Mat& src, int factor, cv::Mat* dst) {
+  if (factor < 1 || src.empty() || src.type() != CV_32FC3) {
+    dst->release();
+    return;
+  }
+  if (factor == 1) {
+    *dst = src;
+    return;
+  }
+  const int rows = (src.rows + factor - 1) / factor, cols = (src.cols + factor - 1) / factor;
+  if (dst->data == src.data) dst->release();  // never write into the source
+  dst->create(rows, cols, CV_32FC3);
+  for (int v = 0; v < rows; ++v) {
+    const cv::Vec3f* in = src.ptr<cv::Vec3f>(v * factor);
+    cv::Vec3f* out = dst->ptr<cv::Vec3f>(v);
+    for (int u = 0; u < cols; ++u)
+      out[u] = in[u * factor];
+  }
+}
+
 void raisedObstaclePoints(const ObstacleDetectionResult& result, const cv::Mat& range_image,
                           const Eigen::Isometry3f& T_fixed_camera,
                           std::vector<Eigen::Vector3f>* points,

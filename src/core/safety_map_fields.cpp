@@ -313,6 +313,20 @@ ParamFieldList<M> makeMapperFields() {
       .openClosed(0, 20)
       .unit("deg")
       .doc("larger corrections are refused: not chassis bobbing (ours).");
+  l.add("relevel_near_radius", &M::relevel, &FrameLevellingConfig::near_radius)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "the reference ground: 0 = the previous map's robot-segment cells on the base's level "
+          "plane; > 0 = the base's level plane over every cell within this distance of the base, "
+          "the ground the chair stands on (the map's cells were built with the same tilt) (ours).");
+  l.add("relevel_filter_frames", &M::relevel, &FrameLevellingConfig::filter_frames)
+      .closed(0, 1000)
+      .doc(
+          "0 = each frame corrected by its own estimate; N = by the median of the last N "
+          "accepted estimates in the camera heading's frame: the constant part of an unreported "
+          "tilt (seat load, tyres, a mount calibrated a little off), robust to a ramp or drop "
+          "ahead (ours).");
   l.setValidator(mapperParameterError);
   return l;
 }

@@ -188,6 +188,83 @@ std::string SafetyMapper::reconfigure(const SafetyMapperConfig& config, bool* gr
   return "";
 }
 
+Eigen::Isometry3f SafetyMapper::relevelPose(const std::vector<Eigen::Vector3f>& points_sensor,
+                                            const Eigen::Isometry3f& T_fixed_sensor,
+                                            const Eigen::Vector3f& robot_base_position,
+                                            FrameLevellingResult* result) {
+  const FrameLevellingConfig& lc = config_.relevel;
+  const double l = grid_.config().voxel_size;
+  const float base_z = robot_base_position.z();
+  const SafetyMap& m = map_;
+  const GroundSegments& segs = segments_;
+  const int rs = m.robot_segment;
+  GroundReference reference;
+  if (lc.near_radius > 0.0) {
+    // FrameLevellingConfig::near_radius: the base's level plane around the robot.
+    const float r2 = static_cast<float>(lc.near_radius * lc.near_radius);
+    const float bx = robot_base_position.x(), by = robot_base_position.y();
+    reference = [=](float x, float y) {
+      const float dx = x - bx, dy = y - by;
+      return dx * dx + dy * dy <= r2 ? base_z : std::numeric_limits<float>::quiet_NaN();
+    };
+  } else if (rs >= 0 && rs < static_cast<int>(m.segments.size()) && m.segments[rs].plane.valid &&
+             static_cast<int>(segs.footprint.size()) == m.width * m.height) {
+    // The robot's ground in the odometry frame is the level plane through its base (a planar
+    // robot, 000 Sec. I-A; odometry knows no pitch or roll): the reference is that plane over the
+    // observed cells of the robot's segment whose measured surface lies on it. Not the segment's
+    // fitted plane: its band also holds the first decimetres of a ramp or of a smear into a
+    // drop, which would tilt the plane and, through it, every later frame.
+    reference = [&](float x, float y) {
+      const int u = static_cast<int>(std::lround(x / l)), v = static_cast<int>(std::lround(y / l));
+      if (!m.inside(u, v)) return std::numeric_limits<float>::quiet_NaN();
+      const int c = m.index(u, v);
+      if (m.segment[c] != rs || segs.footprint[c]) return std::numeric_limits<float>::quiet_NaN();
+      if (!(std::abs(height_map_.surfaceHeightAtIndex(c) - base_z) < kRelevelCellTolerance)) {
+        return std::numeric_limits<float>::quiet_NaN();
+      }
+      return base_z;
+    };
+  } else if (lc.filter_frames == 0) {
+    return T_fixed_sensor;
+  }
+  Eigen::Isometry3f T_frame = T_fixed_sensor;
+  if (reference) {
+    levelFrame(points_sensor, T_fixed_sensor, reference, lc, &T_frame, result, &levelling_scratch_);
+  }
+  if (lc.filter_frames == 0) return T_frame;
+
+  // FrameLevellingConfig::filter_frames: the estimate in the camera heading's frame (x forward,
+  // y left), the median of the last N applied instead of this frame's own.
+  const Eigen::Matrix3f& R = T_fixed_sensor.linear();
+  const double heading = std::atan2(static_cast<double>(R(1, 2)), static_cast<double>(R(0, 2)));
+  const double ch = std::cos(heading), sh = std::sin(heading);
+  if (result->applied) {
+    const double a = result->roll_deg * kDegToRad, b = result->pitch_deg * kDegToRad;
+    // (a, b) are rotations about the fixed x and y axes; about the heading's axes:
+    levelling_history_.emplace_back(ch * a + sh * b, -sh * a + ch * b, result->dz);
+    if (static_cast<int>(levelling_history_.size()) > lc.filter_frames) {
+      levelling_history_.erase(levelling_history_.begin());
+    }
+  }
+  if (levelling_history_.empty()) return T_fixed_sensor;
+  Eigen::Vector3d med;
+  for (int k = 0; k < 3; ++k) {
+    levelling_sorted_.clear();
+    for (const Eigen::Vector3d& h : levelling_history_)
+      levelling_sorted_.push_back(h[k]);
+    const std::size_t mid = levelling_sorted_.size() / 2;
+    std::nth_element(levelling_sorted_.begin(), levelling_sorted_.begin() + mid,
+                     levelling_sorted_.end());
+    med[k] = levelling_sorted_[mid];
+  }
+  const double a = ch * med.x() - sh * med.y(), b = sh * med.x() + ch * med.y();
+  result->applied = true;
+  result->roll_deg = a / kDegToRad;
+  result->pitch_deg = b / kDegToRad;
+  result->dz = med.z();
+  return levelledPose(T_fixed_sensor, a, b, med.z());
+}
+
 void SafetyMapper::reset() {
   grid_.clear();
   obstacle_memory_.clear();
@@ -198,6 +275,7 @@ void SafetyMapper::reset() {
   map_ = SafetyMap();
   segments_ = GroundSegments();
   planes_.clear();
+  levelling_history_.clear();
   timings_ = StageTimings();
   has_last_pose_ = false;
   grid_placed_ = false;
@@ -291,34 +369,11 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   }
 
   const Clock::time_point t0 = Clock::now();
-  // SafetyMapperConfig::relevel: the pose corrected on the previous map's robot segment.
-  Eigen::Isometry3f T_frame = T_fixed_sensor;
-  const int rs = map_.robot_segment;
-  if (config_.relevel.enabled && rs >= 0 && rs < static_cast<int>(map_.segments.size()) &&
-      map_.segments[rs].plane.valid &&
-      static_cast<int>(segments_.footprint.size()) == map_.width * map_.height) {
-    // The robot's ground in the odometry frame is the level plane through its base (a planar
-    // robot, 000 Sec. I-A; odometry knows no pitch or roll): the reference is that plane over the
-    // observed cells of the robot's segment whose measured surface lies on it. Not the segment's
-    // fitted plane: its band also holds the first decimetres of a ramp or of a smear into a
-    // drop, which would tilt the plane and, through it, every later frame.
-    const double l = grid_.config().voxel_size;
-    const float base_z = robot_base_position.z();
-    const SafetyMap& m = map_;
-    const GroundSegments& segs = segments_;
-    const GroundReference reference = [&](float x, float y) {
-      const int u = static_cast<int>(std::lround(x / l)), v = static_cast<int>(std::lround(y / l));
-      if (!m.inside(u, v)) return std::numeric_limits<float>::quiet_NaN();
-      const int c = m.index(u, v);
-      if (m.segment[c] != rs || segs.footprint[c]) return std::numeric_limits<float>::quiet_NaN();
-      if (!(std::abs(height_map_.surfaceHeightAtIndex(c) - base_z) < kRelevelCellTolerance)) {
-        return std::numeric_limits<float>::quiet_NaN();
-      }
-      return base_z;
-    };
-    levelFrame(points_sensor, T_fixed_sensor, reference, config_.relevel, &T_frame, &r.levelling,
-               &levelling_scratch_);
-  }
+  // SafetyMapperConfig::relevel: the pose corrected on the ground the robot stands on.
+  const Eigen::Isometry3f T_frame =
+      config_.relevel.enabled
+          ? relevelPose(points_sensor, T_fixed_sensor, robot_base_position, &r.levelling)
+          : T_fixed_sensor;
   // Recentre on the robot before checking the camera: it must lie inside the window that the
   // rays are traced in. A camera outside it means a pose far from the robot (bad extrinsics or
   // localisation), which would paint free space across the map.

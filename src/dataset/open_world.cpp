@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <fstream>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 
@@ -115,7 +116,7 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
                               ? std::make_unique<ObstacleDetector>(v.detector)
                               : nullptr);
     }
-    cv::Mat xyz;
+    cv::Mat xyz, xyz_detect;
     ObstacleDetectionResult detection;
     std::vector<Eigen::Vector3f> cue_points;
     OpenWorldScorer scorer(file.scene, gt, classes, options.scoring,
@@ -174,11 +175,14 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
             reprojectDisparityOrganized(src.disparity(), cam, variants[k].detector_max_depth, &xyz);
             limitRangeImageDepth(variants[k].detector_min_depth, variants[k].detector_max_depth,
                                  &xyz);
-            if (detectors[k]->detect(xyz, std::max(cam.fx, cam.fy), T_fixed_sensor, &detection,
-                                     cam.baseline)) {
+            // The nodelet's ~decimation: every n-th pixel, f / n, the full image's margin.
+            const int n = variants[k].detector_decimation;
+            decimateRangeImage(xyz, n, &xyz_detect);
+            if (detectors[k]->detect(xyz_detect, std::max(cam.fx, cam.fy) / n, T_fixed_sensor,
+                                     &detection, cam.baseline * n)) {
               scorer.scoreDetection(detection, &result.scores[k].detection);
               if (variants[k].config.obstacle_cue) {
-                raisedObstaclePoints(detection, xyz, T_fixed_sensor, &cue_points, nullptr);
+                raisedObstaclePoints(detection, xyz_detect, T_fixed_sensor, &cue_points, nullptr);
                 p.addObstacleCue(truth.t, cue_points);
               }
             }
@@ -201,6 +205,27 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
           countConfusion(world, gt_grid, &counts, &outcomes);
           const std::string name = "seed" + std::to_string(scene.seed) + "_frame" +
                                    std::to_string(i) + "_" + variants[k].name;
+          // Beside the picture, the map's segments in the world frame (for development: why a
+          // segment is what it is).
+          {
+            const SafetyMap& sm = p.mapper().safetyMap();
+            std::ofstream seg_txt(options.image_dir + "/" + name + "_segments.txt");
+            seg_txt << "# robot segment " << sm.robot_segment
+                    << "; id label cells boundary island reachable obstacle plane_valid slope_deg "
+                       "rms_m points w centroid_world(x y z)\n";
+            for (const SegmentInfo& si : sm.segments) {
+              const Eigen::Vector2d cw =
+                  T_world_odom * Eigen::Vector2d(si.plane.centroid.x(), si.plane.centroid.y());
+              char line[256];
+              std::snprintf(line, sizeof(line),
+                            "%d %s %zu %d %d %d %d %d %.2f %.3f %zu %d %.2f %.2f %.3f\n", si.id,
+                            toString(si.label), si.cells.size(), si.num_boundary, si.island ? 1 : 0,
+                            si.reachable ? 1 : 0, si.obstacle ? 1 : 0, si.plane.valid ? 1 : 0,
+                            si.plane.slope_deg, si.plane.residual_rms, si.plane.num_points,
+                            si.indexed_height, cw.x(), cw.y(), si.plane.centroid.z());
+              seg_txt << line;
+            }
+          }
           cv::imwrite(
               options.image_dir + "/" + name + ".png",
               mapBesideGroundTruth(world, gt_grid, outcomes, Eigen::Vector3d(truth.x, truth.y, 0.0),

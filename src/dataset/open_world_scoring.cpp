@@ -106,6 +106,8 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   obstacle_maps_lenient += o.obstacle_maps_lenient;
   obstacle_maps_missed_lenient += o.obstacle_maps_missed_lenient;
   obstacle_safe_cells += o.obstacle_safe_cells;
+  for (std::size_t k = 0; k < fp_sources.size(); ++k)
+    fp_sources[k] += o.fp_sources[k];
   misses.insert(misses.end(), o.misses.begin(), o.misses.end());
   forgotten.insert(forgotten.end(), o.forgotten.begin(), o.forgotten.end());
   detection += o.detection;
@@ -309,9 +311,13 @@ void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
   ++s->frames;
   const cv::Mat& depth = frame_depth_;
   const cv::Mat& ids = frame_ids_;
+  // A decimated detection (the nodelet's decimation): its pixel (r, c) is the image's (n r, n c).
+  const int n = result.mask.cols > 0
+                    ? std::max(1, (depth.cols + result.mask.cols - 1) / result.mask.cols)
+                    : 1;
   const bool truth = !depth.empty() && depth.type() == CV_32F && !ids.empty() &&
-                     ids.type() == CV_32S && depth.size() == result.mask.size() &&
-                     ids.size() == result.mask.size();
+                     ids.type() == CV_32S && (depth.cols + n - 1) / n == result.mask.cols &&
+                     (depth.rows + n - 1) / n == result.mask.rows && ids.size() == depth.size();
   const bool labelled = !result.labels.empty() && result.labels.size() == result.mask.size();
   std::vector<int> raised(result.obstacles.size() + 1, 0), raised_true(raised.size(), 0);
   std::vector<std::uint8_t> detected(obstacles_.size(), 0);
@@ -329,7 +335,7 @@ void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
         ++s->raised_no_truth;
         continue;
       }
-      const int p = ids.at<std::int32_t>(r, c);
+      const int p = ids.at<std::int32_t>(n * r, n * c);
       const int o =
           p >= 0 && p < static_cast<int>(group_of_primitive_.size()) ? group_of_primitive_[p] : -1;
       bool ok = false;
@@ -337,12 +343,12 @@ void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
         ok = true;
         detected[o] = 1;
       } else {
-        const float z = depth.at<float>(r, c);
+        const float z = depth.at<float>(n * r, n * c);
         if (!std::isfinite(z) || !(z > 0.0f)) {
           ++s->raised_no_truth;
           continue;
         }
-        const Eigen::Vector3d pc((c - cam.cx) * z / cam.fx, (r - cam.cy) * z / cam.fy, z);
+        const Eigen::Vector3d pc((n * c - cam.cx) * z / cam.fx, (n * r - cam.cy) * z / cam.fy, z);
         const Eigen::Vector3d pw = frame_T_world_camera_ * pc;
         const int u0 = gt_.cellOf(pw.x()), v0 = gt_.cellOf(pw.y());
         for (int dv = -1; dv <= 1 && !ok; ++dv) {
@@ -437,6 +443,17 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
         o1 = CellOutcome::kTrueNegative;
       }
       add(&s->tol1, o1);
+      if (o1 == CellOutcome::kFalsePositive) {
+        const int k = map.segment[map.index(u, v)];
+        const int src = k < 0 || k >= static_cast<int>(map.segments.size())
+                            ? SceneScore::kFpNoSegment
+                            : (isSafe(map.segments[k].label) ? SceneScore::kFpSafeSegment
+                                                             : SceneScore::kFpUnsafeSegment);
+        const double d = (w - robot).norm();
+        const int bin = std::min(SceneScore::kFpRangeBins - 1,
+                                 std::max(0, static_cast<int>(std::floor(d - 0.5))));
+        ++s->fp_sources[src * SceneScore::kFpRangeBins + bin];
+      }
       add(&s->by_class[static_cast<int>(classes_[g])], o1);
       if (local_ != nullptr) {
         const SafetyLabel lt = local_->labels[g];

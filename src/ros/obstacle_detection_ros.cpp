@@ -228,10 +228,15 @@ void ObstacleDetectionRos::processFrame(const Frame& frame) {
 
   const auto t1 = std::chrono::steady_clock::now();
   // The stereo baseline for the detector's noise margin (noise_sigmas); a cloud's is unknown.
-  const double baseline = frame.disparity ? camera_.baseline : 0.0;
-  const bool ok = ros_config_.method == "columnwise"
-                      ? detector_->detectColumnwise(xyz_, f, T_fixed_camera, &result_, baseline)
-                      : detector_->detect(xyz_, f, T_fixed_camera, &result_, baseline);
+  // ~decimation: the detector on every n-th pixel, with f / n and the full image's margin.
+  const int n = ros_config_.decimation;
+  const double baseline = frame.disparity ? camera_.baseline * n : 0.0;
+  decimateRangeImage(xyz_, n, &xyz_detect_);
+  f /= n;
+  const bool ok =
+      ros_config_.method == "columnwise"
+          ? detector_->detectColumnwise(xyz_detect_, f, T_fixed_camera, &result_, baseline)
+          : detector_->detect(xyz_detect_, f, T_fixed_camera, &result_, baseline);
   const double detect_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   if (!ok) {
@@ -262,12 +267,13 @@ void ObstacleDetectionRos::publishLabelImage(const std_msgs::Header& header) {
   // Valid pixels grey (brighter = nearer), missing ones black; points of accepted obstacles in
   // their label's colour (feet, the lower ends only, at half brightness); points of obstacles the
   // Sec. 5 rules rejected dark red (as 003 Fig. 8(d) shows them).
-  const int rows = xyz_.rows, cols = xyz_.cols;
+  // At the detector's resolution (1 / ~decimation of the camera's).
+  const int rows = xyz_detect_.rows, cols = xyz_detect_.cols;
   colour_.create(rows, cols, CV_8UC3);
   const float max_depth = static_cast<float>(ros_config_.max_depth);
   const bool labelled = !result_.obstacles.empty();
   for (int r = 0; r < rows; ++r) {
-    const cv::Vec3f* p = xyz_.ptr<cv::Vec3f>(r);
+    const cv::Vec3f* p = xyz_detect_.ptr<cv::Vec3f>(r);
     const std::uint8_t* m = result_.mask.ptr<std::uint8_t>(r);
     const std::int32_t* l = result_.labels.ptr<std::int32_t>(r);
     cv::Vec3b* out = colour_.ptr<cv::Vec3b>(r);
@@ -309,7 +315,7 @@ void ObstacleDetectionRos::publishObstacles(const std_msgs::Header& header,
   // The raised points (upper ends of compatible pairs) of the accepted obstacles, in the fixed
   // frame, with their label: the obstacle cue of the safety map (core/obstacle_cue.h). The feet
   // are the ground around an obstacle and are left out.
-  raisedObstaclePoints(result_, xyz_, T_fixed_camera, &raised_points_, &raised_labels_);
+  raisedObstaclePoints(result_, xyz_detect_, T_fixed_camera, &raised_points_, &raised_labels_);
   const std::size_t n = raised_points_.size();
   auto cloud = boost::make_shared<sensor_msgs::PointCloud2>();
   cloud->header = header;

@@ -68,6 +68,11 @@ const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields() {
         .atLeast(0)
         .unit("px")
         .doc("cloud input only: f of the organised cloud; 0 = fitted from the cloud itself.");
+    l.add("decimation", &R::decimation)
+        .closed(1, 8)
+        .doc(
+            "the detector runs on every n-th pixel of every n-th row, with f / n and the noise "
+            "margin of the full image (ours; 1 = the full image, 003).");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
     l.setValidator([](const R& c) { return c.validate(); });
     return l;
@@ -115,6 +120,8 @@ std::string ObstacleDetectionRosConfig::validate() const {
     os << "max_depth = " << max_depth << ", must be in (min_depth, 1000] m";
   } else if (!std::isfinite(focal_length) || focal_length < 0.0) {
     os << "focal_length = " << focal_length << ", must be >= 0 px (0 = from the cloud)";
+  } else if (decimation < 1 || decimation > 8) {
+    os << "decimation = " << decimation << ", must be in [1, 8]";
   }
   return os.str();
 }

@@ -76,6 +76,7 @@ struct Options {
   std::string params;
   std::string obstacle_params;
   double noise_sigmas = -1.0;  // >= 0: overrides the detector's noise_sigmas (0 = 003's test)
+  int decimation = 0;          // > 0: overrides the nodelet's decimation (1 = 003's full image)
   int every = 1;
   long max_frames = -1;
   double max_range = 8.0;
@@ -90,7 +91,8 @@ void usage() {
   std::fprintf(
       stderr,
       "usage: evaluate_obstacles --bag FILE [--bag FILE ...] [--latency-bag FILE ...]\n"
-      "         [--out DIR] [--params YAML] [--obstacle-params YAML] [--noise-sigmas K] [--every "
+      "         [--out DIR] [--params YAML] [--obstacle-params YAML] [--noise-sigmas K]\n"
+      "         [--decimation N] [--every "
       "N]\n"
       "         [--max-frames N] [--max-range M] [--min-visible N] [--min-fraction F]\n"
       "         [--margin M] [--images N] [--quiet]\n"
@@ -100,6 +102,7 @@ void usage() {
       "  --params           safety-map parameters (config/safety_map.yaml; obstacle_cue_*)\n"
       "  --obstacle-params  detector parameters (config/obstacle_detection.yaml)\n"
       "  --noise-sigmas K   override the detector's noise_sigmas (0 = 003's Definition 1)\n"
+      "  --decimation N     override the nodelet's decimation (1 = 003's full image)\n"
       "  --max-range M      points farther than M (depth) are ignored [8 m]\n"
       "  --min-visible N    a GT obstacle with fewer visible points is not in view [30]\n"
       "  --min-fraction F   detected when F of its visible points are detected [0.25]\n"
@@ -113,8 +116,8 @@ bool parseArgs(int argc, char** argv, Options* o) {
     if (a.value("--bag", &o->bags) || a.value("--latency-bag", &o->latency_bags) ||
         a.value("--out", &o->out) || a.value("--params", &o->params) ||
         a.value("--obstacle-params", &o->obstacle_params) ||
-        a.value("--noise-sigmas", &o->noise_sigmas) || a.value("--max-frames", &o->max_frames) ||
-        a.flag("--quiet", &o->quiet))
+        a.value("--noise-sigmas", &o->noise_sigmas) || a.value("--decimation", &o->decimation) ||
+        a.value("--max-frames", &o->max_frames) || a.flag("--quiet", &o->quiet))
       continue;
     if (a.value("--every", &o->every)) {
       if (o->every < 1) return false;
@@ -342,13 +345,16 @@ cv::Mat overlay(const cv::Mat& left, const ssm::ObstacleDetectionResult& a,
     const ssm::ObstacleDetectionResult& r = k == 0 ? a : b;
     cv::Mat half = out(cv::Rect(k * grey.cols, 0, grey.cols, grey.rows));
     grey.copyTo(half);
-    for (int y = 0; y < grey.rows; ++y) {
-      const std::uint8_t* m = r.mask.ptr<std::uint8_t>(y);
-      const std::int32_t* l = r.labels.ptr<std::int32_t>(y);
+    // A decimated detection (the nodelet's ~decimation): pixel (x, y) is its (x / n, y / n).
+    const int n = std::max(1, (grey.cols + r.mask.cols - 1) / std::max(1, r.mask.cols));
+    for (int y = 0; y < grey.rows && y / n < r.mask.rows; ++y) {
+      const std::uint8_t* m = r.mask.ptr<std::uint8_t>(y / n);
+      const std::int32_t* l = r.labels.ptr<std::int32_t>(y / n);
       cv::Vec3b* o = half.ptr<cv::Vec3b>(y);
-      for (int x = 0; x < grey.cols; ++x) {
-        const bool rejected = l[x] > 0 && r.obstacles[l[x] - 1].rejected;
-        if (m[x] == ssm::ObstacleDetectionResult::kRaised) {
+      for (int x = 0; x < grey.cols && x / n < r.mask.cols; ++x) {
+        const int xd = x / n;
+        const bool rejected = l[xd] > 0 && r.obstacles[l[xd] - 1].rejected;
+        if (m[xd] == ssm::ObstacleDetectionResult::kRaised) {
           o[x] = cv::Vec3b(o[x][0] / 3, 200, o[x][2] / 3 + 40);  // accepted: green
         } else if (rejected) {
           o[x] = cv::Vec3b(o[x][0] / 3, o[x][1] / 3, 220);  // rejected by Sec. 5: red
@@ -391,7 +397,7 @@ std::string evaluateBag(const std::string& bag, bool latency_only, const Options
   ssm::ObstacleDetector detector(ocfg);
   ssm::ObstacleCueFusion cue(ccfg), lagged(ccfg);
   ssm::ObstacleDetectionResult r3, rc;
-  cv::Mat xyz;
+  cv::Mat xyz_full, xyz;  // the range image, and what the detector gets (~decimation)
   std::vector<Eigen::Vector3f> pts;
   std::vector<std::uint8_t> marked, marked_lag, bins;
   const double ht = ocfg.height_threshold;
@@ -421,14 +427,18 @@ std::string evaluateBag(const std::string& bag, bool latency_only, const Options
       continue;
     }
     // The range image as the nodelet builds it: [min_depth, max_depth].
-    ssm::reprojectDisparityOrganized(disp, frame.camera, orcfg.max_depth, &xyz);
-    ssm::limitRangeImageDepth(orcfg.min_depth, orcfg.max_depth, &xyz);
-    const double f = std::max(frame.camera.fx, frame.camera.fy);
+    ssm::reprojectDisparityOrganized(disp, frame.camera, orcfg.max_depth, &xyz_full);
+    ssm::limitRangeImageDepth(orcfg.min_depth, orcfg.max_depth, &xyz_full);
+    // ~decimation as the nodelet applies it: every n-th pixel, f / n, the full image's margin.
+    const int n = orcfg.decimation;
+    const double f = std::max(frame.camera.fx, frame.camera.fy) / n;
+    const double baseline = frame.camera.baseline * n;
     double t0 = threadCpuMs();
-    const bool ok3 = detector.detect(xyz, f, T, &r3, frame.camera.baseline);
+    ssm::decimateRangeImage(xyz_full, n, &xyz);
+    const bool ok3 = detector.detect(xyz, f, T, &r3, baseline);
     const double ms3 = threadCpuMs() - t0;
     t0 = threadCpuMs();
-    const bool okc = detector.detectColumnwise(xyz, f, T, &rc, frame.camera.baseline);
+    const bool okc = detector.detectColumnwise(xyz, f, T, &rc, baseline);
     const double msc = threadCpuMs() - t0;
     if (!ok3 || !okc) {
       ++res->problems["detector: " + (ok3 ? rc.error : r3.error)];
@@ -560,6 +570,10 @@ int main(int argc, char** argv) {
     ocfg.noise_sigmas = opt.noise_sigmas;
     e = ocfg.validate();
   }
+  if (e.empty() && opt.decimation > 0) {
+    orcfg.decimation = opt.decimation;
+    e = orcfg.validate();
+  }
   if (!e.empty()) {
     std::fprintf(stderr, "evaluate_obstacles: %s\n", e.c_str());
     return 2;
@@ -589,7 +603,8 @@ int main(int argc, char** argv) {
   md << "# Obstacle detection (paper 003) and the obstacle cue\n\n"
      << "Tool: `evaluate_obstacles` (src/tools/evaluate_obstacles.cpp). Detector: H_T "
      << ocfg.height_threshold << " m, H_max " << ocfg.max_height << " m, theta_T "
-     << ocfg.slope_threshold_deg << " deg, stereo noise margin " << ocfg.noise_sigmas
+     << ocfg.slope_threshold_deg << " deg, decimation " << orcfg.decimation
+     << " (every n-th pixel; 1 = 003's full image), stereo noise margin " << ocfg.noise_sigmas
      << " sigma (sigma_d " << ocfg.disparity_sigma << " px; 0 = 003's Definition 1), "
      << (ocfg.exhaustive_search ? "exhaustive" : "early-exit") << " search, min_volume "
      << ocfg.min_volume << " m^3; range image " << orcfg.min_depth << ".." << orcfg.max_depth

@@ -4,7 +4,8 @@
 // runs) with several mapper variants, and scored against the analytic ground truth
 // (open_world_scoring.h). No roscore, no bag: every frame is rendered in memory.
 //
-//   evaluate_open_world [--split dev|report] [--scenes N] [--first K] [--conditions LIST]
+//   evaluate_open_world [--split dev|report] [--scenes N] [--first K] [--seeds S1,S2,...]
+//                       [--conditions LIST]
 //                       [--variants LIST] [--jobs N] [--max-frames N] [--out DIR]
 //                       [--params YAML ...] [--set key=value ...] [--images F1,F2,...] [--quiet]
 //
@@ -15,7 +16,10 @@
 //           effect on this split. Run it on the final code, report what it says even when it is
 //           worse, and never iterate on it.
 // Conditions (degradation presets, degradation.h): perfect (no degradation, perfect pose),
-// default (the documented default degradations), strong; or any spec parseDegradation() takes.
+// default (the documented default degradations), strong; or name:spec with a spec that
+// parseDegradation() takes, '+' in place of its commas (e.g. "nopitch:default+
+// chassis_pitch_offset_deg=0+chassis_jitter_deg=0": the defaults without the chassis tilt), for
+// measuring which degradation costs what on the dev split.
 // Variants: default (config files), paper (paperFaithful(): every "(ours)" switch off),
 // no_margin (drop_off_margin off), sgbm (matcher: sgbm), or name:key=value;key=value (the
 // configuration with these parameters: for trying a change on the dev split; detector.<key> sets
@@ -73,6 +77,8 @@ struct Options {
   bool quiet = false;
   bool detector = false;          // score paper 003's detector per frame in every variant
   std::vector<int> image_frames;  // pictures of these frames of every scene (DIR/images/)
+  std::vector<std::uint64_t>
+      seeds;  // --seeds: these seeds of the split instead of --first/--scenes
 };
 
 std::vector<std::string> splitList(const std::string& s) {
@@ -85,12 +91,13 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 void usage() {
-  std::fprintf(stderr,
-               "usage: evaluate_open_world [--split dev|report] [--scenes N] [--first K]\n"
-               "         [--conditions perfect,default,strong] [--variants default,paper,"
-               "no_margin,sgbm]\n"
-               "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
-               "key=value ...] [--detector] [--quiet]\n");
+  std::fprintf(
+      stderr,
+      "usage: evaluate_open_world [--split dev|report] [--scenes N] [--first K] [--seeds S,...]\n"
+      "         [--conditions perfect,default,strong] [--variants default,paper,"
+      "no_margin,sgbm]\n"
+      "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
+      "key=value ...] [--detector] [--quiet]\n");
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -109,6 +116,9 @@ bool parse(int argc, char** argv, Options* o) {
       o->variants = splitList(v);
     } else if (a.value("--jobs", &o->jobs)) {
       o->jobs = std::max(1, o->jobs);
+    } else if (a.value("--seeds", &v)) {
+      for (const std::string& f : splitList(v))
+        o->seeds.push_back(std::strtoull(f.c_str(), nullptr, 10));
     } else if (a.value("--images", &v)) {
       for (const std::string& f : splitList(v))
         o->image_frames.push_back(std::atoi(f.c_str()));
@@ -159,7 +169,23 @@ std::string makeVariant(const std::string& name, const ssm::StereoFrameProcessor
           e = ssm::applyYamlFields(root, ssm::obstacleDetectionFields(), &v->detector, "variant",
                                    &unknown);
         }
-        if (e.empty() && !unknown.empty()) e = "unknown detector parameter " + unknown.front();
+        if (e.empty() && !unknown.empty()) {
+          // The nodelet's own keys (min_depth, max_depth, decimation).
+          ssm::ObstacleDetectionRosConfig ros;
+          ros.min_depth = v->detector_min_depth;
+          ros.max_depth = v->detector_max_depth;
+          ros.decimation = v->detector_decimation;
+          std::vector<std::string> still_unknown;
+          e = ssm::applyYamlFields(root, ssm::obstacleDetectionRosFields(), &ros, "variant",
+                                   &still_unknown);
+          if (e.empty()) e = ros.validate();
+          if (e.empty() && !still_unknown.empty()) {
+            e = "unknown detector parameter " + still_unknown.front();
+          }
+          v->detector_min_depth = ros.min_depth;
+          v->detector_max_depth = ros.max_depth;
+          v->detector_decimation = ros.decimation;
+        }
         if (e.empty()) e = v->detector.validate();
         if (!e.empty()) return "variant " + v->name + ": " + e;
         continue;
@@ -290,9 +316,16 @@ int main(int argc, char** argv) {
   }
   // A variant that maps the first one's disparity must not change the disparity settings.
   std::vector<ds::DegradationConfig> conditions;
-  for (const std::string& c : opt.conditions) {
+  for (std::string& c : opt.conditions) {
     ds::DegradationConfig d;
-    const std::string e = ds::parseDegradation(c == "perfect" ? "none" : c, &d);
+    std::string spec = c == "perfect" ? "none" : c;
+    const std::size_t colon = c.find(':');
+    if (colon != std::string::npos) {
+      spec = c.substr(colon + 1);
+      std::replace(spec.begin(), spec.end(), '+', ',');
+      c = c.substr(0, colon);
+    }
+    const std::string e = ds::parseDegradation(spec, &d);
     if (!e.empty()) {
       std::fprintf(stderr, "condition %s: %s\n", c.c_str(), e.c_str());
       return 2;
@@ -320,6 +353,24 @@ int main(int argc, char** argv) {
   run.ground_truth.resolution = base.mapper.grid.voxel_size;
 
   const std::uint64_t seed_base = opt.split == "report" ? kReportSeedBase : kDevSeedBase;
+  // --seeds: chosen seeds of the split (for looking at a few scenes again); they must belong to
+  // it, so that the dev and report splits stay apart.
+  std::vector<std::uint64_t> seeds;
+  if (opt.seeds.empty()) {
+    for (int k = 0; k < opt.scenes; ++k)
+      seeds.push_back(seed_base + static_cast<std::uint64_t>(opt.first + k));
+  } else {
+    const std::uint64_t end = opt.split == "report" ? ~0ull : kReportSeedBase;
+    for (const std::uint64_t sd : opt.seeds) {
+      if (sd < seed_base || sd >= end) {
+        std::fprintf(stderr, "seed %llu is not in the %s split\n",
+                     static_cast<unsigned long long>(sd), opt.split.c_str());
+        return 2;
+      }
+      seeds.push_back(sd);
+    }
+    opt.scenes = static_cast<int>(seeds.size());
+  }
   std::vector<Cell> cells;
   for (const std::string& c : opt.conditions)
     for (const ds::OpenWorldVariant& v : variants)
@@ -343,7 +394,7 @@ int main(int argc, char** argv) {
     for (;;) {
       const std::size_t i = next++;
       if (i >= items.size()) return;
-      const std::uint64_t seed = seed_base + static_cast<std::uint64_t>(opt.first + items[i].scene);
+      const std::uint64_t seed = seeds[static_cast<std::size_t>(items[i].scene)];
       ds::ProceduralScene scene;
       const std::string e = ds::generateProceduralScene(seed, ds::ProceduralConfig(), &scene);
       if (!e.empty()) {
@@ -432,13 +483,13 @@ int main(int argc, char** argv) {
       "none", "drop_off", "step_up", "steep_ramp", "gentle_ramp", "obstacle", "overhang"};
   ssm::tools::Json j;
   j.open('{');
-  j.kv("split", opt.split).kv("first_seed", static_cast<std::uint64_t>(seed_base + opt.first));
+  j.kv("split", opt.split).kv("first_seed", seeds.front());
   j.kv("scenes", opt.scenes);
   j.key("cells").open('[');
   std::ostringstream md;
   md << "# Open-world evaluation, " << opt.split << " split\n\n"
-     << "Seeds " << seed_base + opt.first << " .. " << seed_base + opt.first + opt.scenes - 1
-     << " (" << opt.scenes << " scenes per condition"
+     << "Seeds " << seeds.front() << " .. " << seeds.back() << " (" << opt.scenes
+     << " scenes per condition"
      << (opt.split == "report" ? "; the report split: no tuning ever looks at it" : "")
      << "). Rates in %: mean +- sd over scenes (each scene's rate from sums over its maps), "
         "worst scene. tol 1 = one cell of tolerance at label boundaries.\n\n";
@@ -459,6 +510,14 @@ int main(int argc, char** argv) {
   std::ostringstream classes_md;
   classes_md << "\n## Per hazard class (tol 1)\n\n| condition | variant | class | FN | FP "
                 "|\n|---|---|---|---|---|\n";
+  std::ostringstream sources_md;
+  sources_md << "\n## Where the false positives come from (tol 1, pooled over the scenes)\n\n"
+                "Share of the FP cell-maps by the map cell's segment (not safe: unreached or too "
+                "steep, 000 Alg. 2; safe but the cell overridden: drop-off margin, obstacle memory "
+                "or cue; no segment: a non-traversable column, memory or cue) and by distance from "
+                "the robot.\n\n| condition | variant | FP cell-maps | unsafe segment | safe "
+                "segment | no segment | < 1.5 m | 1.5-2.5 m | 2.5-3.5 m | >= 3.5 m |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Cell& c : cells) {
     const Stat fn0 = stat(c, [](const ds::SceneScore& s) { return fnRate(s.tol0); });
     const Stat fn1 = stat(c, [](const ds::SceneScore& s) { return fnRate(s.tol1); });
@@ -471,6 +530,29 @@ int main(int argc, char** argv) {
     ds::SceneScore total;
     for (const ds::SceneScore& s : c.scenes)
       total += s;
+    {
+      constexpr int kBins = ds::SceneScore::kFpRangeBins;
+      std::uint64_t all = 0, by_source[ds::SceneScore::kFpSourceCount] = {}, by_range[kBins] = {};
+      for (int src = 0; src < ds::SceneScore::kFpSourceCount; ++src) {
+        for (int b = 0; b < kBins; ++b) {
+          const std::uint64_t n = total.fp_sources[src * kBins + b];
+          all += n;
+          by_source[src] += n;
+          by_range[b] += n;
+        }
+      }
+      auto share = [all](std::uint64_t n) {
+        char b[16];
+        std::snprintf(b, sizeof(b), "%.1f %%", all > 0 ? 100.0 * n / all : 0.0);
+        return std::string(b);
+      };
+      sources_md << "| " << c.condition << " | " << c.variant << " | " << all;
+      for (const std::uint64_t n : by_source)
+        sources_md << " | " << share(n);
+      for (const std::uint64_t n : by_range)
+        sources_md << " | " << share(n);
+      sources_md << " |\n";
+    }
     if (total.detection.frames > 0) {
       any_detector = true;
       const ds::DetectionScore& d = total.detection;
@@ -539,10 +621,12 @@ int main(int argc, char** argv) {
   j.close('}');
   std::ofstream(opt.out + "/metrics.json") << j.str() << "\n";
   const std::string detector_text = any_detector ? detector_md.str() : std::string();
-  std::ofstream(opt.out + "/report.md") << md.str() << detector_text << classes_md.str();
+  std::ofstream(opt.out + "/report.md")
+      << md.str() << detector_text << classes_md.str() << sources_md.str();
   std::printf("%s", md.str().c_str());
   std::printf("%s", detector_text.c_str());
   std::printf("%s", classes_md.str().c_str());
+  std::printf("%s", sources_md.str().c_str());
   if (failures > 0) std::fprintf(stderr, "%d scene runs failed\n", failures);
   return failures > 0 ? 1 : 0;
 }

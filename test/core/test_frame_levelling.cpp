@@ -87,6 +87,14 @@ TEST(FrameLevellingConfig, Validate) {
   c = FrameLevellingConfig();
   c.stride = 0;
   EXPECT_NE(c.validate().find("relevel_stride"), std::string::npos);
+  c = FrameLevellingConfig();
+  c.near_radius = -0.1;
+  EXPECT_NE(c.validate().find("relevel_near_radius"), std::string::npos);
+  c.near_radius = std::nan("");
+  EXPECT_NE(c.validate().find("relevel_near_radius"), std::string::npos);
+  c = FrameLevellingConfig();
+  c.filter_frames = 1001;
+  EXPECT_NE(c.validate().find("relevel_filter_frames"), std::string::npos);
 }
 
 TEST(FrameLevelling, UndoesAnUnreportedPitchRollAndHeightOnTheRobotsFloor) {

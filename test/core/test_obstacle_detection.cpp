@@ -35,6 +35,7 @@ void operator delete(void* p, std::size_t) noexcept {
 }
 
 namespace ssm = stereo_safety_map;
+using ssm::decimateRangeImage;
 using ssm::ObstacleDetectionConfig;
 using ssm::ObstacleDetectionResult;
 using ssm::ObstacleDetector;
@@ -1077,6 +1078,72 @@ TEST(ObstacleDetectionNoiseMargin, FloorNoiseAtRangeIsNoObstacleTheBoxStillIs) {
   // A bad baseline is refused.
   EXPECT_FALSE(det_margin.detect(img.xyz, cam.f, cam.T, &res_no_baseline, -1.0));
   EXPECT_FALSE(det_margin.detect(img.xyz, cam.f, cam.T, &res_no_baseline, NAN));
+}
+
+TEST(ObstacleDetectionDecimation, HalfResolutionFindsTheBoxAndKeepsTheNoiseMargin) {
+  // The scene of FloorNoiseAtRangeIsNoObstacleTheBoxStillIs at 640x480 (f 600), detected on
+  // every second pixel with f / 2 and baseline * 2 (the nodelet's ~decimation 2): the box is
+  // still an accepted obstacle, the far floor stays clear with the default margin (k = 1), and
+  // passing f / 2 with the true baseline (a margin twice too wide) would lose points on the box.
+  const Camera cam = makeCamera(640, 480, 600.0f, 1.1f, 15.0f);
+  const float b = 0.12f;
+  Rendered img = render(
+      {floorShape(), box(Eigen::Vector3f(2.0f, 0.0f, 0.15f), Eigen::Vector3f(0.15f, 0.2f, 0.15f))},
+      cam, 8.0f);
+  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, 11);
+
+  cv::Mat half;
+  decimateRangeImage(img.xyz, 2, &half);
+  ASSERT_EQ(half.rows, 240);
+  ASSERT_EQ(half.cols, 320);
+  for (int v = 0; v < half.rows; v += 37) {
+    for (int u = 0; u < half.cols; u += 29) {
+      const cv::Vec3f a = half.at<cv::Vec3f>(v, u), c = img.xyz.at<cv::Vec3f>(2 * v, 2 * u);
+      EXPECT_TRUE((a[2] == c[2]) || (std::isnan(a[2]) && std::isnan(c[2])));
+    }
+  }
+  cv::Mat same;
+  decimateRangeImage(img.xyz, 1, &same);
+  EXPECT_EQ(same.data, img.xyz.data);
+  cv::Mat none;
+  decimateRangeImage(img.xyz, 0, &none);
+  EXPECT_TRUE(none.empty());
+  decimateRangeImage(cv::Mat(4, 4, CV_32FC1), 2, &none);
+  EXPECT_TRUE(none.empty());
+
+  ObstacleDetector det;  // the defaults: noise_sigmas 1
+  ObstacleDetectionResult full, dec, wide;
+  ASSERT_TRUE(det.detect(img.xyz, cam.f, cam.T, &full, b));
+  ASSERT_TRUE(det.detect(half, cam.f / 2, cam.T, &dec, b * 2));
+  ASSERT_TRUE(det.detect(half, cam.f / 2, cam.T, &wide, b));
+  auto onBox = [](const ObstacleDetectionResult& r, int* elsewhere) {
+    int on_box = 0;
+    *elsewhere = 0;
+    for (const ObstacleInfo& o : r.obstacles) {
+      if (o.rejected) continue;
+      const bool near_box = (o.centroid.head<2>() - Eigen::Vector2f(2.0f, 0.0f)).norm() < 0.5f;
+      ++(near_box ? on_box : *elsewhere);
+    }
+    return on_box;
+  };
+  int elsewhere_full = 0, elsewhere_dec = 0, elsewhere_wide = 0;
+  EXPECT_GE(onBox(full, &elsewhere_full), 1);
+  EXPECT_GE(onBox(dec, &elsewhere_dec), 1);
+  onBox(wide, &elsewhere_wide);
+  EXPECT_EQ(elsewhere_dec, elsewhere_full);
+  // Raised points: a quarter of the pixels, about a quarter of the marks on the box.
+  const int raised_full = cv::countNonZero(full.mask == ObstacleDetectionResult::kRaised);
+  const int raised_dec = cv::countNonZero(dec.mask == ObstacleDetectionResult::kRaised);
+  const int raised_wide = cv::countNonZero(wide.mask == ObstacleDetectionResult::kRaised);
+  EXPECT_GT(raised_dec, raised_full / 8) << raised_full;
+  EXPECT_LT(raised_dec, raised_full / 2) << raised_full;
+  EXPECT_LT(raised_wide, raised_dec) << "a margin twice too wide must cost marks (else no test)";
+  // The cue from the decimated image: points on the box.
+  std::vector<Eigen::Vector3f> pts;
+  raisedObstaclePoints(dec, half, cam.T, &pts, nullptr);
+  ASSERT_FALSE(pts.empty());
+  for (const Eigen::Vector3f& p : pts)
+    EXPECT_LT((p.head<2>() - Eigen::Vector2f(2.0f, 0.0f)).norm(), 0.6f);
 }
 
 TEST(ObstacleDetectionNoiseMargin, MarksAreASubsetOfTheConstantTestsAndNearObstaclesStay) {

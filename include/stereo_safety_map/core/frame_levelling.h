@@ -33,6 +33,19 @@ struct FrameLevellingConfig {
   int min_points = 200;             ///< fewer gated points: no correction
   double min_extent = 1.0;          ///< forward / lateral spread of the points needed [m]
   int stride = 3;                   ///< every stride-th point is tried, [1, 100]
+  /// The reference ground (SafetyMapper). 0: the previous map's robot-segment cells whose
+  /// measured surface lies on the base's level plane (the first rule, ours). > 0: the base's
+  /// level plane over every cell within this horizontal distance [m] of the robot's base: the
+  /// chair stands on that ground, whatever the map made of it. The map's own cells are no
+  /// absolute reference: they were built from frames with the same tilt, so a correction
+  /// measured against them stays near zero. [0, 10] m.
+  double near_radius = 0.0;
+  /// 0: each frame is corrected by its own estimate. N > 0: by the per-component median of the
+  /// last N accepted estimates, expressed in the camera's heading frame (a tilt of the mount or
+  /// the seat turns with the chair): the constant part of an unreported tilt (seat load, tyre
+  /// pressure, a mount calibrated a little off) is removed, and a ramp or a drop ahead that
+  /// pulls a few frames' estimates does not move the median. [0, 1000].
+  int filter_frames = 0;
 
   std::string validate() const;
 };
@@ -56,6 +69,11 @@ struct FrameLevellingScratch {
   std::vector<Eigen::Vector3d> q;
   std::vector<double> e;
 };
+
+/// `T_fixed_sensor` rotated about its own origin by `roll` about the fixed frame's x axis and
+/// `pitch` about its y axis [rad], then moved up by `dz` [m]: the correction levelFrame() applies.
+Eigen::Isometry3f levelledPose(const Eigen::Isometry3f& T_fixed_sensor, double roll, double pitch,
+                               double dz);
 
 /// Estimates the correction of `T_fixed_sensor` (points_sensor in the sensor frame, whose origin
 /// is the camera) that puts the points over the reference ground onto it. On success writes the

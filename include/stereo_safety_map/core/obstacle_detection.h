@@ -208,6 +208,15 @@ struct ObstacleDetectionResult {
 /// 0 when fewer than 100 pixels are valid or they span less than 10 columns.
 double estimateFocalLength(const cv::Mat& range_image);
 
+/// The range image at 1/factor of its resolution, for detect() at a lower cost (ours, issue 18:
+/// the detector's share of a 30 Hz graph on two cores): pixel (i, j) is the source's (factor i,
+/// factor j), picked and not averaged (an average across a depth edge is a point on neither
+/// surface). Give detect() focal_length / factor and baseline * factor: the noise margin depends
+/// on the source disparity's f b (001 Sec. 4.1), which that keeps, and the windows on the
+/// decimated pixel footprint. factor 1 copies nothing (dst shares src's data); factor < 1 or a
+/// src that is not CV_32FC3 leaves dst empty. dst is reallocated only when its size changes.
+void decimateRangeImage(const cv::Mat& src, int factor, cv::Mat* dst);
+
 /// The raised points (upper ends of compatible pairs, ObstacleDetectionResult::kRaised) of the
 /// accepted obstacles of `result`, taken from `range_image` (the one detect() was given) into
 /// the fixed frame, with their labels, in image order: the obstacle cue of the safety map

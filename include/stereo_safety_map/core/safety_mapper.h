@@ -252,6 +252,14 @@ class SafetyMapper {
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
+  // FrameLevellingConfig::filter_frames: the last accepted per-frame estimates (roll and pitch
+  // about the camera heading's axes [rad], dz [m]), oldest first, and a scratch for medians.
+  std::vector<Eigen::Vector3d> levelling_history_;
+  std::vector<double> levelling_sorted_;
+  Eigen::Isometry3f relevelPose(const std::vector<Eigen::Vector3f>& points_sensor,
+                                const Eigen::Isometry3f& T_fixed_sensor,
+                                const Eigen::Vector3f& robot_base_position,
+                                FrameLevellingResult* result);
   void applyObstacleMemory(std::int32_t robot_w, float robot_z);
 
   ObservationAge observation_age_;

@@ -37,6 +37,7 @@ struct OpenWorldVariant {
   ObstacleDetectionConfig detector;
   double detector_min_depth = 0.2;  ///< the nodelet's min_depth / max_depth [m]
   double detector_max_depth = 8.0;
+  int detector_decimation = 2;  ///< the nodelet's decimation (decimateRangeImage), its default
   bool score_detector = false;
 };
 

@@ -109,6 +109,14 @@ struct SceneScore {
   int obstacle_maps_lenient = 0;
   int obstacle_maps_missed_lenient = 0;
   int obstacle_safe_cells = 0;  ///< cells inside an obstacle's footprint labelled safe (lenient)
+  /// Where the false positives (tol 1) come from, for development: the map cell's segment was
+  /// not safe (kFpUnsafeSegment: unreached or too steep, 000 Alg. 2), it was safe but the cell
+  /// was overridden (kFpSafeSegment: drop-off margin, obstacle memory or cue), or the cell is in
+  /// no segment (kFpNoSegment: a non-traversable column, memory or cue); and by the cell's
+  /// distance from the true robot position (kFpRangeBins bins of 1 m from 0.5 m, the last open).
+  enum FpSource { kFpUnsafeSegment = 0, kFpSafeSegment = 1, kFpNoSegment = 2, kFpSourceCount = 3 };
+  static constexpr int kFpRangeBins = 4;
+  std::array<std::uint64_t, kFpSourceCount * kFpRangeBins> fp_sources{};
   std::vector<std::string> misses;     ///< a few lines naming missed obstacles (first per obstacle)
   std::vector<std::string> forgotten;  ///< a few lines naming forgotten cells (first per cell)
   DetectionScore detection;            ///< when the variant ran 003's detector

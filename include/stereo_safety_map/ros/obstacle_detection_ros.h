@@ -85,6 +85,7 @@ class ObstacleDetectionRos : public FrameNodeletShell<StereoFrame> {
   StereoCameraModel camera_;
   cv::Mat disparity_;
   cv::Mat xyz_;
+  cv::Mat xyz_detect_;  // what the detector gets: xyz_ itself, or every ~decimation-th pixel
   std::vector<Eigen::Vector3f> raised_points_;  // the obstacle cue of the last frame
   std::vector<std::uint32_t> raised_labels_;
   cv::Mat colour_;

@@ -37,6 +37,11 @@ struct ObstacleDetectionRosConfig {
   double min_depth = 0.2;  ///< range image: nearer points are missing [m] (the grid's min_range)
   double max_depth = 8.0;  ///< range image: farther points are missing [m] (the grid's max_range)
   double focal_length = 0.0;  ///< cloud input: f [px]; 0 = estimated from the organised cloud
+  /// The detector runs on every decimation-th pixel of every decimation-th row
+  /// (decimateRangeImage; ours, issue 18); 1 = the full image (003). 2 by default: the same
+  /// point recall and precision on datasets 1 and 4 at a quarter of the time, and the default
+  /// graph keeps up at 30 Hz (docs/performance.md).
+  int decimation = 2;
 
   std::string validate() const;
 };
