@@ -1000,6 +1000,16 @@ cv::Mat withDisparityNoise(const cv::Mat& xyz, float f, float b, float sigma_d, 
   return out;
 }
 
+// A 0.3 m box 2 m ahead on a floor seen to 8 m by `cam`, with the disparity noise of a camera of
+// baseline b (sigma_d 0.5 px).
+Rendered boxOnNoisyFloor(const Camera& cam, float b, unsigned seed) {
+  Rendered img = render(
+      {floorShape(), box(Eigen::Vector3f(2.0f, 0.0f, 0.15f), Eigen::Vector3f(0.15f, 0.2f, 0.15f))},
+      cam, 8.0f);
+  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, seed);
+  return img;
+}
+
 }  // namespace
 
 TEST(ObstacleDetectionNoiseMargin, FloorNoiseAtRangeIsNoObstacleTheBoxStillIs) {
@@ -1009,10 +1019,7 @@ TEST(ObstacleDetectionNoiseMargin, FloorNoiseAtRangeIsNoObstacleTheBoxStillIs) {
   // the floor is clear and the box is still found.
   const Camera cam = makeCamera(320, 240, 300.0f, 1.1f, 15.0f);
   const float b = 0.12f;
-  Rendered img = render(
-      {floorShape(), box(Eigen::Vector3f(2.0f, 0.0f, 0.15f), Eigen::Vector3f(0.15f, 0.2f, 0.15f))},
-      cam, 8.0f);
-  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, 7);
+  Rendered img = boxOnNoisyFloor(cam, b, 7);
   const cv::Mat box_px = shapePixelsAbove(img, cam, 1, 0.1f);
   ASSERT_GT(cv::countNonZero(box_px), 300);
   // Floor pixels farther than 1 m from the box: never part of it.
@@ -1087,10 +1094,7 @@ TEST(ObstacleDetectionDecimation, HalfResolutionFindsTheBoxAndKeepsTheNoiseMargi
   // passing f / 2 with the true baseline (a margin twice too wide) would lose points on the box.
   const Camera cam = makeCamera(640, 480, 600.0f, 1.1f, 15.0f);
   const float b = 0.12f;
-  Rendered img = render(
-      {floorShape(), box(Eigen::Vector3f(2.0f, 0.0f, 0.15f), Eigen::Vector3f(0.15f, 0.2f, 0.15f))},
-      cam, 8.0f);
-  img.xyz = withDisparityNoise(img.xyz, cam.f, b, 0.5f, 11);
+  const Rendered img = boxOnNoisyFloor(cam, b, 11);
 
   cv::Mat half;
   decimateRangeImage(img.xyz, 2, &half);

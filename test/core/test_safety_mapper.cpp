@@ -44,6 +44,9 @@ struct Rig {
   double sigma = 0.003;        // isotropic noise [m]
   double sigma_range = 0.001;  // along-ray noise per squared metre of range (stereo-like)
   double max_range = 8.0;
+  /// The true camera pitches this much further down than the pose the frames report (a chassis
+  /// tilt odometry does not know) [deg].
+  double unreported_pitch_deg = 0.0;
 };
 
 double hitBox(const Box& b, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
@@ -144,7 +147,11 @@ std::vector<Frame> drive(const World& w, const Rig& rig = Rig(), double end_x = 
     const double x = end_x - rig.step * (rig.frames - 1 - k);
     const double yaw = rig.yaw_amplitude_deg * std::sin(0.9 * k);
     const double pitch = (k % 2 == 0) ? rig.pitch_a_deg : rig.pitch_b_deg;
-    frames.push_back(render(w, rig, x, 0.0, yaw, pitch, &rng));
+    Frame f = render(w, rig, x, 0.0, yaw, pitch + rig.unreported_pitch_deg, &rng);
+    if (rig.unreported_pitch_deg != 0.0) {
+      f.T = cameraPose(f.T.translation().cast<double>(), yaw, pitch);  // what odometry reports
+    }
+    frames.push_back(f);
   }
   return frames;
 }
@@ -1040,20 +1047,11 @@ TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {
 
 constexpr double kUnreportedPitchDeg = 1.0;
 
-std::vector<Frame> driveTilted(const World& w, double end_x, unsigned seed = 1) {
+std::vector<Frame> driveTilted(const World& w, double end_x) {
   Rig rig;
   rig.frames = 30;
-  std::mt19937 rng(seed);
-  std::vector<Frame> frames;
-  for (int k = 0; k < rig.frames; ++k) {
-    const double x = end_x - rig.step * (rig.frames - 1 - k);
-    const double yaw = rig.yaw_amplitude_deg * std::sin(0.9 * k);
-    const double pitch = (k % 2 == 0) ? rig.pitch_a_deg : rig.pitch_b_deg;
-    Frame f = render(w, rig, x, 0.0, yaw, pitch + kUnreportedPitchDeg, &rng);
-    f.T = cameraPose(f.T.translation().cast<double>(), yaw, pitch);  // what odometry reports
-    frames.push_back(f);
-  }
-  return frames;
+  rig.unreported_pitch_deg = kUnreportedPitchDeg;
+  return drive(w, rig, end_x);
 }
 
 SafetyMapperConfig learnedLevelling() {
