@@ -1,5 +1,7 @@
 #include "stereo_safety_map/core/ground_segmentation.h"
 
+#include "stereo_safety_map/core/plane_fit.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -24,6 +26,12 @@ std::string GroundSegmentationConfig::validate() const {
   }
   if (island_max_span < 0 || island_max_span > 1000) {
     return "island_max_span must be in [0, 1000] voxels";
+  }
+  if (!std::isfinite(split_min_step) || split_min_step <= 0.0 || split_min_step > 10.0) {
+    return "split_min_step must be in (0, 10] m";
+  }
+  if (split_min_cells < 1 || split_min_cells > 100000) {
+    return "split_min_cells must be in [1, 100000] cells";
   }
   return "";
 }
@@ -66,6 +74,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   s.segment_cells.clear();
   s.segment_height.clear();
   s.segment_island.clear();
+  s.segment_split_from.clear();
   s.non_traversable.clear();
   s.footprint.assign(n, 0);
   if (!std::isfinite(voxel_size) || voxel_size <= 0.0) return false;
@@ -189,6 +198,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
       const std::int32_t wk = heightOf(c);
       s.segment_height.push_back(wk);
       s.segment_island.push_back(island ? 1 : 0);
+      s.segment_split_from.push_back(-1);
       s.segment_of[c] = k;
       s.segment_cells.push_back(c);
       to_compare_.clear();
@@ -256,6 +266,8 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     }
   }
 
+  if (config_.split_steps) splitSteps(hm, voxel_size, &s);
+
   // Non-traversable columns (000, Sec. V-A): a height, within R_max, in no segment.
   for (int cell = 0; cell < n; ++cell) {
     if (s.examined[cell] && s.segment_of[cell] < 0 && hm.atIndex(cell) != HeightMap::kNoHeight) {
@@ -263,6 +275,248 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
     }
   }
   return true;
+}
+
+void GroundSegmentation::splitSteps(const HeightMap& hm, double l, GroundSegments* out) {
+  GroundSegments& s = *out;
+  const int n = s.numCells();
+  const int nseg0 = s.numSegments();
+  const int min_cells = config_.split_min_cells;
+  const int w_cells = s.width;
+  static constexpr int kDu[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+  static constexpr int kDv[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  PlaneFitConfig fit_config;
+  fit_config.min_points = 3;
+  PlaneFitConfig local_config;  // a border cell's local planes: six columns at least
+  local_config.min_points = 6;
+  split_side_.assign(n, -1);
+  split_part_.assign(n, -1);
+  split_dist_.assign(n, kSplitFar);
+  bool any = false;
+  auto xOf = [&](int c) { return s.cellU(c) * l; };
+  auto yOf = [&](int c) { return s.cellV(c) * l; };
+  // Connected parts (8-neighbours) of the tested columns with the same side; split_part_ holds
+  // each column's part, split_part_size_ the sizes, split_part_cells_ the cells part by part.
+  auto findParts = [&](int k) {
+    split_part_size_.clear();
+    split_part_cells_.clear();
+    for (const int c : split_cols_)
+      split_part_[c] = -1;
+    for (const int c0 : split_cols_) {
+      if (split_part_[c0] >= 0) continue;
+      const int id = static_cast<int>(split_part_size_.size());
+      const std::int8_t side = split_side_[c0];
+      split_part_[c0] = id;
+      split_stack_.assign(1, c0);
+      int size = 0;
+      while (!split_stack_.empty()) {
+        const int c = split_stack_.back();
+        split_stack_.pop_back();
+        split_part_cells_.push_back(c);
+        ++size;
+        const int u = c % w_cells, v = c / w_cells;
+        for (int j = 0; j < 8; ++j) {
+          const int un = u + kDu[j], vn = v + kDv[j];
+          if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
+          const int cn = vn * w_cells + un;
+          if (s.segment_of[cn] != k || split_side_[cn] != side || split_part_[cn] >= 0) continue;
+          split_part_[cn] = id;
+          split_stack_.push_back(cn);
+        }
+      }
+      split_part_size_.push_back(size);
+    }
+  };
+
+  for (int k = 0; k < nseg0; ++k) {
+    if (s.segmentSize(k) < 2 * min_cells) continue;
+    // The segment's ground-like columns and the plane through their ground heights.
+    split_cols_.clear();
+    PlaneFitAccumulator all;
+    for (const int* it = s.cellsBegin(k); it != s.cellsEnd(k); ++it) {
+      const int c = *it;
+      if (s.footprint[c]) continue;
+      const float g = hm.groundHeightAtIndex(c);
+      const std::int32_t w = hm.atIndex(c);
+      if (!std::isfinite(g) || w == HeightMap::kNoHeight ||
+          static_cast<long long>(w) - hm.lowestAtIndex(c) > 1) {
+        continue;
+      }
+      split_cols_.push_back(c);
+      all.add(Eigen::Vector3d(xOf(c), yOf(c), g));
+    }
+    if (static_cast<int>(split_cols_.size()) < 2 * min_cells) continue;
+    const GroundPlane p = all.fit(fit_config);
+    if (!p.valid) continue;
+    // Otsu's threshold on the residuals: the split maximising w0 w1 (m0 - m1)^2.
+    split_res_.clear();
+    double total = 0.0;
+    for (const int c : split_cols_) {
+      const float r = hm.groundHeightAtIndex(c);
+      split_res_.emplace_back(r, c);
+      total += r;
+    }
+    std::sort(split_res_.begin(), split_res_.end());
+    const int m = static_cast<int>(split_res_.size());
+    double best = -1.0, prefix = 0.0;
+    int cut = 0;  // the first `cut` residuals are the low side
+    for (int i = 1; i < m; ++i) {
+      prefix += split_res_[i - 1].first;
+      if (split_res_[i].first == split_res_[i - 1].first) continue;
+      const double n0 = i, n1 = m - i;
+      const double d = prefix / n0 - (total - prefix) / n1;
+      const double between = n0 * n1 * d * d;
+      if (between > best) {
+        best = between;
+        cut = i;
+      }
+    }
+    if (cut == 0) continue;
+    for (int i = 0; i < m; ++i)
+      split_side_[split_res_[i].second] = i < cut ? 0 : 1;
+    // Parts smaller than split_min_cells are noise: they join the other side. Then each column
+    // goes to the side whose plane is nearer its ground height, kSplitIterations times: an
+    // unreported chassis pitch tilts the map's floor by a few centimetres over R_max, so a
+    // threshold on the heights alone cuts a tilted floor along a contour line, while two planes
+    // follow the two levels of a step on it.
+    for (int it = 0;; ++it) {
+      findParts(k);
+      for (const int c : split_cols_) {
+        if (split_part_size_[split_part_[c]] < min_cells) split_side_[c] = 1 - split_side_[c];
+      }
+      if (it == kSplitIterations) break;
+      PlaneFitAccumulator side_fit[2];
+      for (const int c : split_cols_)
+        side_fit[split_side_[c]].add(Eigen::Vector3d(xOf(c), yOf(c), hm.groundHeightAtIndex(c)));
+      const GroundPlane q0 = side_fit[0].fit(fit_config), q1 = side_fit[1].fit(fit_config);
+      if (!q0.valid || !q1.valid) break;
+      for (const int c : split_cols_) {
+        const double g = hm.groundHeightAtIndex(c);
+        split_side_[c] =
+            std::abs(g - q1.heightAt(xOf(c), yOf(c))) < std::abs(g - q0.heightAt(xOf(c), yOf(c)))
+                ? 1
+                : 0;
+      }
+    }
+    int side_count[2] = {0, 0};
+    PlaneFitAccumulator side_fit[2];
+    for (const int c : split_cols_) {
+      ++side_count[split_side_[c]];
+      side_fit[split_side_[c]].add(Eigen::Vector3d(xOf(c), yOf(c), hm.groundHeightAtIndex(c)));
+    }
+    if (side_count[0] >= min_cells && side_count[1] >= min_cells) {
+      // The side that stays: the robot's, else the larger.
+      int keep = side_count[1] > side_count[0] ? 1 : 0;
+      if (k == s.robot_segment) {
+        if (s.seed_cell >= 0 && split_side_[s.seed_cell] >= 0) {
+          keep = split_side_[s.seed_cell];
+        } else {
+          const GroundPlane q0 = side_fit[0].fit(fit_config), q1 = side_fit[1].fit(fit_config);
+          const double xr = s.robot.u * l, yr = s.robot.v * l, zr = s.robot.w * l;
+          if (q0.valid && q1.valid) {
+            keep = std::abs(q1.heightAt(xr, yr) - zr) < std::abs(q0.heightAt(xr, yr) - zr) ? 1 : 0;
+          }
+        }
+      }
+      // Each column's distance from the sides' border (8-neighbour steps, up to kSplitBand).
+      split_queue_.clear();
+      for (const int c : split_cols_) {
+        const int u = c % w_cells, v = c / w_cells;
+        for (int j = 0; j < 8; ++j) {
+          const int un = u + kDu[j], vn = v + kDv[j];
+          if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
+          const int cn = vn * w_cells + un;
+          if (s.segment_of[cn] == k && split_side_[cn] == 1 - split_side_[c]) {
+            split_dist_[c] = 0;
+            split_queue_.push_back(c);
+            break;
+          }
+        }
+      }
+      for (std::size_t head = 0; head < split_queue_.size(); ++head) {
+        const int c = split_queue_[head];
+        if (split_dist_[c] >= kSplitBand) continue;
+        const int u = c % w_cells, v = c / w_cells;
+        for (int j = 0; j < 8; ++j) {
+          const int un = u + kDu[j], vn = v + kDv[j];
+          if (un < 0 || vn < 0 || un >= w_cells || vn >= s.height) continue;
+          const int cn = vn * w_cells + un;
+          if (s.segment_of[cn] != k || split_side_[cn] != split_side_[c] ||
+              split_dist_[cn] <= split_dist_[c] + 1)
+            continue;
+          split_dist_[cn] = static_cast<std::int8_t>(split_dist_[c] + 1);
+          split_queue_.push_back(cn);
+        }
+      }
+      // Each connected part of the other side leaves when it is a step: at each of its border
+      // cells, the local planes of the two sides are fitted to their columns 1 to kSplitBand
+      // cells from the border (the border columns mix the two levels' points) within
+      // kSplitWindow cells, and the part's step is their difference at the median border cell.
+      // Across a step the local planes are the two levels; across the contour line along which
+      // Otsu cut a ramp they are the same plane.
+      findParts(k);
+      const int first_new = s.numSegments();
+      std::size_t begin = 0;
+      for (std::size_t part = 0; part < split_part_size_.size(); ++part) {
+        const int size = split_part_size_[part];
+        const int* cells = split_part_cells_.data() + begin;
+        begin += size;
+        if (split_side_[cells[0]] == keep) continue;
+        split_diffs_.clear();
+        for (int i = 0; i < size; ++i) {
+          const int c = cells[i];
+          if (split_dist_[c] != 0) continue;
+          const int u = c % w_cells, v = c / w_cells;
+          PlaneFitAccumulator local[2];  // [0] this part, [1] the side that stays
+          for (int vn = std::max(0, v - kSplitWindow);
+               vn <= std::min(s.height - 1, v + kSplitWindow); ++vn) {
+            for (int un = std::max(0, u - kSplitWindow);
+                 un <= std::min(w_cells - 1, u + kSplitWindow); ++un) {
+              const int cn = vn * w_cells + un;
+              if (s.segment_of[cn] != k || split_dist_[cn] < 1 || split_dist_[cn] > kSplitBand)
+                continue;
+              const bool mine = split_part_[cn] == static_cast<int>(part);
+              if (!mine && split_side_[cn] != keep) continue;
+              local[mine ? 0 : 1].add(
+                  Eigen::Vector3d(xOf(cn), yOf(cn), hm.groundHeightAtIndex(cn)));
+            }
+          }
+          const GroundPlane p0 = local[0].fit(local_config), p1 = local[1].fit(local_config);
+          if (!p0.valid || !p1.valid) continue;
+          split_diffs_.push_back(
+              static_cast<float>(p0.heightAt(xOf(c), yOf(c)) - p1.heightAt(xOf(c), yOf(c))));
+        }
+        if (split_diffs_.empty()) continue;
+        auto mid = split_diffs_.begin() + split_diffs_.size() / 2;
+        std::nth_element(split_diffs_.begin(), mid, split_diffs_.end());
+        if (!(std::abs(*mid) > config_.split_min_step)) continue;
+        const int id = s.numSegments();
+        s.segment_height.push_back(s.segment_height[k]);
+        s.segment_island.push_back(s.segment_island[k]);
+        s.segment_split_from.push_back(k);
+        for (int i = 0; i < size; ++i)
+          s.segment_of[cells[i]] = id;
+      }
+      any = any || s.numSegments() > first_new;
+    }
+    for (const int c : split_cols_) {
+      split_side_[c] = -1;
+      split_part_[c] = -1;
+      split_dist_[c] = kSplitFar;
+    }
+  }
+  if (!any) return;
+  // Cells listed segment by segment again, in scan order within each.
+  const int nseg = s.numSegments();
+  s.segment_begin.assign(nseg + 1, 0);
+  for (int c = 0; c < n; ++c)
+    if (s.segment_of[c] >= 0) ++s.segment_begin[s.segment_of[c] + 1];
+  for (int k = 0; k < nseg; ++k)
+    s.segment_begin[k + 1] += s.segment_begin[k];
+  split_stack_.assign(s.segment_begin.begin(), s.segment_begin.end() - 1);
+  s.segment_cells.assign(s.segment_begin[nseg], -1);
+  for (int c = 0; c < n; ++c)
+    if (s.segment_of[c] >= 0) s.segment_cells[split_stack_[s.segment_of[c]]++] = c;
 }
 
 }  // namespace stereo_safety_map

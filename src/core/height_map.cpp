@@ -27,10 +27,15 @@ void HeightMap::reset(int min_u, int min_v, int width, int height) {
   w_.assign(static_cast<std::size_t>(width_) * height_, kNoHeight);
   w_low_.assign(w_.size(), kNoHeight);
   surface_z_.assign(w_.size(), std::numeric_limits<float>::quiet_NaN());
+  ground_z_.assign(w_.size(), std::numeric_limits<float>::quiet_NaN());
 }
 
 void HeightMap::setSurfaceHeight(int u, int v, float z) {
   if (inside(u, v)) surface_z_[index(u, v)] = z;
+}
+
+void HeightMap::setGroundHeight(int u, int v, float z) {
+  if (inside(u, v)) ground_z_[index(u, v)] = z;
 }
 
 void HeightMap::set(int u, int v, std::int32_t w) {
@@ -41,7 +46,10 @@ void HeightMap::set(int u, int v, std::int32_t w, std::int32_t w_low) {
   if (!inside(u, v)) return;
   w_[index(u, v)] = w;
   w_low_[index(u, v)] = w == kNoHeight ? kNoHeight : std::min(w, w_low);
-  if (w == kNoHeight) surface_z_[index(u, v)] = std::numeric_limits<float>::quiet_NaN();
+  if (w == kNoHeight) {
+    surface_z_[index(u, v)] = std::numeric_limits<float>::quiet_NaN();
+    ground_z_[index(u, v)] = std::numeric_limits<float>::quiet_NaN();
+  }
 }
 
 bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
@@ -69,6 +77,7 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
     std::int32_t* row = &w_[static_cast<std::size_t>(v - lo.v) * width_];
     std::int32_t* row_low = &w_low_[static_cast<std::size_t>(v - lo.v) * width_];
     float* row_z = &surface_z_[static_cast<std::size_t>(v - lo.v) * width_];
+    float* row_g = &ground_z_[static_cast<std::size_t>(v - lo.v) * width_];
     for (int u = lo.u; u < lo.u + width_; ++u) {
       // Scanning down from the robot's top, the first occupied voxel is the column's height,
       // the last one its lowest.
@@ -77,12 +86,19 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
       row[u - lo.u] = top;
       row_low[u - lo.u] = bottom;
       const VoxelPointList pts = grid.points(VoxelIndex{u, v, top});
-      if (!pts.empty()) {
-        float sum = 0.0f;
-        for (const VoxelPoint& p : pts)
+      float sum = 0.0f;
+      for (const VoxelPoint& p : pts)
+        sum += p.position.z();
+      if (!pts.empty()) row_z[u - lo.u] = sum / static_cast<float>(pts.size);
+      // groundHeightAtIndex(): the top voxel's points and those of the voxel below it.
+      std::size_t count = pts.size;
+      if (top - 1 >= w_lo) {
+        const VoxelPointList below = grid.points(VoxelIndex{u, v, top - 1});
+        for (const VoxelPoint& p : below)
           sum += p.position.z();
-        row_z[u - lo.u] = sum / static_cast<float>(pts.size);
+        count += below.size;
       }
+      if (count > 0) row_g[u - lo.u] = sum / static_cast<float>(count);
     }
   }
   return true;

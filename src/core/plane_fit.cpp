@@ -114,14 +114,25 @@ GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments&
   };
   PlaneFitAccumulator acc;
   addLayer(&acc, 0, nullptr, 0.0);
-  if (config_.vertical_margin == 0) return acc.fit(config_);
+  // The two sides of a step split by GroundSegmentationConfig::split_steps are fitted with at
+  // least one layer of margin: the lower side's band holds only the upper tail of its noise,
+  // its body lies in the layer below.
+  int margin = config_.vertical_margin;
+  if (margin == 0 &&
+      static_cast<int>(segments.segment_split_from.size()) == segments.numSegments()) {
+    for (int j = 0; j < segments.numSegments() && margin == 0; ++j) {
+      if (segments.segment_split_from[j] >= 0 && (j == k || segments.segment_split_from[j] == k))
+        margin = 1;
+    }
+  }
+  if (margin == 0) return acc.fit(config_);
   // PlaneFitConfig::vertical_margin: a first fit on the band and all the points that spilled
   // into the layers above and below (stereo noise cut off at the band's top and bottom), then
   // two refits on the band's points and those spilled points within 2.5 RMS residuals (at least
   // a quarter voxel) of the previous plane, so that the bases of obstacles and other surfaces
   // in those layers drop out again.
   PlaneFitAccumulator all = acc;
-  for (int dw = 1; dw <= config_.vertical_margin; ++dw) {
+  for (int dw = 1; dw <= margin; ++dw) {
     addLayer(&all, dw, nullptr, 0.0);
     addLayer(&all, -dw, nullptr, 0.0);
   }
@@ -131,7 +142,7 @@ GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments&
   for (int pass = 0; pass < 2; ++pass) {
     const double tol = std::max(2.5 * plane.residual_rms, 0.25 * l);
     PlaneFitAccumulator gated;
-    for (int dw = -config_.vertical_margin; dw <= config_.vertical_margin; ++dw)
+    for (int dw = -margin; dw <= margin; ++dw)
       addLayer(&gated, dw, &plane, tol);
     const GroundPlane refit = gated.fit(config_);
     if (!refit.valid) break;

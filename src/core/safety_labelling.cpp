@@ -255,8 +255,11 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         const GroundPlane* pr = planeOf(nb_seg[j]);
         int ok = 0;
         if (ps != nullptr && pr != nullptr) {
+          // Two sides of a step that GroundSegmentationConfig::split_steps measured are judged
+          // by their planes alone: their top voxels' points, the upper tail of the lower
+          // side's noise, stand within h_T of the upper side's.
           ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
-               nb_close[j];
+               (nb_close[j] && !segs.splitSiblings(k, nb_seg[j]));
         }
         contacts_.push_back(Contact{k, nb_seg[j], ok, nb_rise[j], c});
       }

@@ -131,6 +131,24 @@ ParamFieldList<M> makeMapperFields() {
       .doc(
           "columns whose occupied voxels span more (faces of obstacles) never join an island "
           "segment (ours).");
+  l.add("split_steps", &M::segmentation, &GroundSegmentationConfig::split_steps)
+      .live(kStage)
+      .doc(
+          "a segment holding a step lower than a voxel (6 cm down into a sunken floor) is split "
+          "where the ground heights of its columns jump, and Alg. 2 judges the step by the two "
+          "sides' planes (ours; false = 000's Alg. 1).");
+  l.add("split_min_step", &M::segmentation, &GroundSegmentationConfig::split_min_step)
+      .openClosed(0, 10)
+      .unit("m")
+      .live(kStage)
+      .doc(
+          "split_steps: the smallest step between the two sides' local planes that splits; Alg. "
+          "2's h_T decides whether it is crossable (ours).");
+  l.add("split_min_cells", &M::segmentation, &GroundSegmentationConfig::split_min_cells)
+      .closed(1, 100000)
+      .unit("cells")
+      .live(kStage)
+      .doc("split_steps: fewest cells of a side; smaller parts are noise (ours).");
   l.add("footprint_radius", &M::segmentation, &GroundSegmentationConfig::footprint_radius)
       .closed(0, 5)
       .unit("m")

@@ -109,6 +109,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
   c.segmentation.segment_islands = false;  // 000 Alg. 1 grows from the robot's island only
   c.segmentation.footprint_radius = 0.0;   // 000 seeds on observed ground only
+  c.segmentation.split_steps = false;      // 000 Alg. 1: a segment is one indexed height
   c.labelling.small_obstacles = false;     // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.footprint_bridge = 0.0;
   c.labelling.bridge_tilt_deg = 0.0;

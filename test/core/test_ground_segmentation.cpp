@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -17,6 +19,7 @@ GroundSegmentationConfig paperConfig() {
   GroundSegmentationConfig c;
   c.segment_islands = false;
   c.footprint_radius = 0.0;
+  c.split_steps = false;
   return c;
 }
 
@@ -521,6 +524,102 @@ TEST(GroundSegmentationFootprint, ObservedGroundWithinTheSeedRadiusAndTheFootpri
   ASSERT_EQ(s.robot_segment, 0);
   EXPECT_TRUE(s.footprint[s.seed_cell]);
   EXPECT_NE(s.segment_of[s.index(10, 2)], 0);
+}
+
+// --- Steps inside a segment (GroundSegmentationConfig::split_steps) ---------------------------
+
+// A band of one indexed height (w = 0), 30 x 20 cells, whose columns' ground heights are
+// ground(u, v) plus a deterministic +-1 cm noise; the robot stands at u = 2, v = 10.
+HeightMap bandWithGround(const std::function<double(int, int)>& ground) {
+  HeightMap hm;
+  hm.reset(0, 0, 30, 20);
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < 30; ++u) {
+      hm.set(u, v, 0);
+      const double noise = 0.01 * (((u * 7 + v * 13) % 5) - 2) / 2.0;
+      hm.setGroundHeight(u, v, static_cast<float>(ground(u, v) + noise));
+    }
+  }
+  return hm;
+}
+
+GroundSegmentationConfig splitConfig(bool split) {
+  GroundSegmentationConfig c = paperConfig();
+  c.split_steps = split;
+  return c;
+}
+
+TEST(GroundSegmentationSplit, ASixCentimetreStepInsideTheBandSplitsTheRobotsSegment) {
+  // The upper floor's points stand at +2 cm, the sunken floor's (u >= 15) at -4 cm: one indexed
+  // height, as when the lower floor's noise reaches into the upper floor's voxel.
+  const HeightMap hm = bandWithGround([](int u, int) { return u < 15 ? 0.02 : -0.04; });
+  GroundSegments s;
+  GroundSegmentation off(splitConfig(false));
+  ASSERT_TRUE(off.segment(hm, VoxelIndex{2, 10, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 1);  // 000's Alg. 1: one segment over both levels
+
+  GroundSegmentation on(splitConfig(true));
+  ASSERT_TRUE(on.segment(hm, VoxelIndex{2, 10, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 2);
+  EXPECT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_of[s.index(2, 10)], 0);
+  const int lower = s.segment_of[s.index(25, 10)];
+  EXPECT_EQ(lower, 1);
+  EXPECT_EQ(s.segment_split_from[1], 0);
+  EXPECT_EQ(s.segment_split_from[0], -1);
+  EXPECT_TRUE(s.splitSiblings(0, 1));
+  EXPECT_TRUE(s.splitSiblings(1, 0));
+  EXPECT_EQ(s.segment_height[1], 0);
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < 30; ++u)
+      EXPECT_EQ(s.segment_of[s.index(u, v)], u < 15 ? 0 : 1) << u << ", " << v;
+  }
+  EXPECT_TRUE(s.non_traversable.empty());
+}
+
+TEST(GroundSegmentationSplit, AStepBelowSplitMinStepOrASmallPatchDoesNotSplit) {
+  GroundSegmentation seg(splitConfig(true));
+  GroundSegments s;
+  // 3 cm: crossable, not split.
+  ASSERT_TRUE(seg.segment(bandWithGround([](int u, int) { return u < 15 ? 0.02 : -0.01; }),
+                          VoxelIndex{2, 10, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 1);
+  // A lower patch of 3 x 3 cells (fewer than split_min_cells) is noise, not a level.
+  ASSERT_TRUE(seg.segment(bandWithGround([](int u, int v) {
+                            return (u >= 20 && u < 23 && v >= 8 && v < 11) ? -0.05 : 0.02;
+                          }),
+                          VoxelIndex{2, 10, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 1);
+}
+
+TEST(GroundSegmentationSplit, ARampInsideTheBandIsNotSplit) {
+  // 5 deg up along u: 0.87 cm per 0.1 m cell, 26 cm over the band (its heights are set by hand),
+  // and a level floor that bends into a 6 deg ramp at u = 12. Otsu splits them along a contour
+  // line, where the two sides' planes agree.
+  const double t5 = std::tan(5.0 * M_PI / 180.0), t6 = std::tan(6.0 * M_PI / 180.0);
+  GroundSegmentation seg(splitConfig(true));
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(bandWithGround([&](int u, int) { return -0.05 + kLv * u * t5; }),
+                          VoxelIndex{2, 10, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 1);
+  ASSERT_TRUE(
+      seg.segment(bandWithGround([&](int u, int) { return u < 12 ? 0.0 : kLv * (u - 12) * t6; }),
+                  VoxelIndex{2, 10, 0}, kLv, &s));
+  EXPECT_EQ(s.numSegments(), 1);
+}
+
+TEST(GroundSegmentationSplit, TheSideWithTheRobotKeepsTheSegment) {
+  // The robot stands on the lower level: the upper side leaves.
+  const HeightMap hm = bandWithGround([](int u, int) { return u < 15 ? -0.04 : 0.02; });
+  GroundSegmentation seg(splitConfig(true));
+  GroundSegments s;
+  ASSERT_TRUE(seg.segment(hm, VoxelIndex{2, 10, 0}, kLv, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.numSegments(), 2);
+  EXPECT_EQ(s.segment_of[s.index(2, 10)], s.robot_segment);
+  EXPECT_EQ(s.segment_of[s.index(25, 10)], 1);
+  EXPECT_EQ(s.segment_split_from[1], s.robot_segment);
 }
 
 }  // namespace

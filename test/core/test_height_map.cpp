@@ -142,6 +142,37 @@ TEST(HeightMap, LowestOccupiedVoxelAndMeasuredSurfaceHeight) {
   EXPECT_TRUE(std::isnan(hm.surfaceHeightAtIndex(hm.index(5, 5))));
 }
 
+TEST(HeightMap, GroundHeightTakesTheTopTwoVoxelsPoints) {
+  // A floor at z = -0.06 whose noise reaches into the voxel above (w = 0, [-0.05, 0.05)): the top
+  // voxel's points are only the upper tail, the ground height averages both voxels' points.
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  const Eigen::Isometry3f T(Eigen::Translation3f(0.1f, 0.1f, 2.0f));
+  std::vector<Eigen::Vector3f> one(1);
+  const float zs[6] = {-0.04f, -0.045f, -0.07f, -0.08f, -0.065f, -0.06f};
+  for (int rep = 0; rep < 2; ++rep) {  // 4 + 8 points: within the 8-point lists
+    for (int i = 0; i < 6; ++i) {
+      one[0] = Eigen::Vector3f(0.06f + 0.01f * i, 0.08f + 0.01f * rep, zs[i]) - T.translation();
+      g.integrate(one, T);
+    }
+  }
+  occupy(&g, 1, 1, 0);  // as after more frames
+  occupy(&g, 1, 1, -1);
+  HeightMap hm;
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  const int c = hm.index(1, 1);
+  ASSERT_EQ(hm.atIndex(c), 0);
+  EXPECT_NEAR(hm.surfaceHeightAtIndex(c), -0.0425f, 1e-4f);  // the tail alone
+  EXPECT_NEAR(hm.groundHeightAtIndex(c), -0.06f, 1e-4f);     // all six heights
+  // No height: no ground height; set by hand for tests.
+  EXPECT_TRUE(std::isnan(hm.groundHeightAtIndex(hm.index(5, 5))));
+  hm.set(5, 5, 0);
+  hm.setGroundHeight(5, 5, 0.01f);
+  EXPECT_FLOAT_EQ(hm.groundHeightAtIndex(hm.index(5, 5)), 0.01f);
+  hm.set(5, 5, HeightMap::kNoHeight);
+  EXPECT_TRUE(std::isnan(hm.groundHeightAtIndex(hm.index(5, 5))));
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

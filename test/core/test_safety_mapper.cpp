@@ -386,6 +386,40 @@ TEST(SafetyMapper, FourCentimetreStepIsReachableTenCentimetreStepIsNot) {
   }
 }
 
+TEST(SafetyMapper, ASunkenFloorLowerThanAVoxelIsNotLevel) {
+  // 6.5 cm down into a sunken area, from a floor 3 cm above the base voxel's centre to one
+  // 3.5 cm below it: both levels in the robot's voxel band (l_v = 0.1 m), as wherever a step
+  // lower than a voxel does not happen to cross a voxel boundary. 000's Alg. 1 grows one segment
+  // over both and its plane is level across the step (split_steps off).
+  World w;
+  w.ground = [](double x, double y) {
+    return (x > 1.8 && x < 3.6 && std::abs(y) < 1.2) ? -0.035 : 0.03;
+  };
+  Rig rig;
+  rig.sigma = 0.008;
+  const auto frames = drive(w, rig);
+  SafetyMapperConfig paper_rule;
+  paper_rule.segmentation.split_steps = false;
+  const auto merged = run(frames, paper_rule);
+  const auto sunken = cellsIn(merged->safetyMap(), 2.1, 3.3, -0.8, 0.8);
+  const auto upper = cellsIn(merged->safetyMap(), 0.6, 1.5, -0.8, 0.8);
+  EXPECT_GT(countLabel(merged->safetyMap(), sunken, L::kLevel), static_cast<int>(sunken.size()) / 2)
+      << "the case this test is about no longer arises" << ascii(merged->safetyMap());
+
+  const auto mapper = run(frames);
+  const SafetyMap& m = mapper->safetyMap();
+  EXPECT_EQ(countLabel(m, sunken, L::kLevel) + countLabel(m, sunken, L::kInclined), 0) << ascii(m);
+  EXPECT_GT(countLabel(m, sunken, L::kNonGround), static_cast<int>(sunken.size()) * 9 / 10)
+      << ascii(m);
+  EXPECT_EQ(countLabel(m, upper, L::kNonGround), 0) << ascii(m);
+  EXPECT_GT(countLabel(m, upper, L::kLevel), static_cast<int>(upper.size()) * 95 / 100) << ascii(m);
+  const int lower = m.segment[m.index(cellOf(2.8), 0)];
+  ASSERT_GE(lower, 0) << ascii(m);
+  EXPECT_NE(lower, m.robot_segment);
+  EXPECT_EQ(m.segments[lower].indexed_height, robotSegment(m)->indexed_height);
+  EXPECT_NEAR(m.segments[lower].plane.c, -0.035, 0.02);
+}
+
 TEST(SafetyMapper, BoxIsNonGround) {
   World w;
   w.boxes.push_back({{2.0, -0.3, -0.1}, {2.4, 0.3, 0.5}});

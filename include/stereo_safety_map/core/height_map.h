@@ -48,6 +48,8 @@ class HeightMap {
   void set(int u, int v, std::int32_t w, std::int32_t w_low);
   /// Sets a column's measured surface height [m] (NaN: none); ignored outside the window.
   void setSurfaceHeight(int u, int v, float z);
+  /// Sets a column's ground height [m] (NaN: none; see groundHeightAtIndex); ignored outside.
+  void setGroundHeight(int u, int v, float z);
 
   int minU() const { return min_u_; }
   int minV() const { return min_v_; }
@@ -73,6 +75,14 @@ class HeightMap {
   /// the indexed height it is not quantised to l_v, so a ramp's columns differ by its slope
   /// times their spacing, not by whole voxels.
   float surfaceHeightAtIndex(int cell) const { return surface_z_[cell]; }
+  /// Ground height of the column [m] (ours, for GroundSegmentationConfig::split_steps): the mean
+  /// z of the point lists of its highest occupied voxel and of the voxel just below it, NaN when
+  /// the column has no height or none of them has points. A surface that lies in the lower part
+  /// of a voxel leaves only the upper tail of its stereo noise in the voxel above: the top
+  /// voxel's mean (surfaceHeightAtIndex) then stands above the surface, by up to about half a
+  /// voxel, and a sunken floor 6 cm below the robot's reads 3-4 cm below it. The two voxels
+  /// together hold the whole spread of the noise.
+  float groundHeightAtIndex(int cell) const { return ground_z_[cell]; }
   const std::vector<std::int32_t>& data() const { return w_; }
   /// Highest indexed height considered by the last build() (the robot's top), for diagnostics.
   int topIndex() const { return top_w_; }
@@ -84,6 +94,7 @@ class HeightMap {
   std::vector<std::int32_t> w_;
   std::vector<std::int32_t> w_low_;
   std::vector<float> surface_z_;
+  std::vector<float> ground_z_;
 };
 
 }  // namespace stereo_safety_map
