@@ -330,7 +330,8 @@ void GroundSegmentation::splitSteps(const HeightMap& hm, double l, GroundSegment
 
   for (int k = 0; k < nseg0; ++k) {
     if (s.segmentSize(k) < 2 * min_cells) continue;
-    // The segment's ground-like columns and the plane through their ground heights.
+    // The segment's ground-like columns. A segment whose columns span no plane (a strip one
+    // cell wide) is not tested.
     split_cols_.clear();
     PlaneFitAccumulator all;
     for (const int* it = s.cellsBegin(k); it != s.cellsEnd(k); ++it) {
@@ -346,20 +347,19 @@ void GroundSegmentation::splitSteps(const HeightMap& hm, double l, GroundSegment
       all.add(Eigen::Vector3d(xOf(c), yOf(c), g));
     }
     if (static_cast<int>(split_cols_.size()) < 2 * min_cells) continue;
-    const GroundPlane p = all.fit(fit_config);
-    if (!p.valid) continue;
-    // Otsu's threshold on the residuals: the split maximising w0 w1 (m0 - m1)^2.
+    if (!all.fit(fit_config).valid) continue;
+    // Otsu's threshold on the ground heights: the cut maximising n0 n1 (m0 - m1)^2.
     split_res_.clear();
     double total = 0.0;
     for (const int c : split_cols_) {
-      const float r = hm.groundHeightAtIndex(c);
-      split_res_.emplace_back(r, c);
-      total += r;
+      const float g = hm.groundHeightAtIndex(c);
+      split_res_.emplace_back(g, c);
+      total += g;
     }
     std::sort(split_res_.begin(), split_res_.end());
     const int m = static_cast<int>(split_res_.size());
     double best = -1.0, prefix = 0.0;
-    int cut = 0;  // the first `cut` residuals are the low side
+    int cut = 0;  // the first `cut` heights are the low side
     for (int i = 1; i < m; ++i) {
       prefix += split_res_[i - 1].first;
       if (split_res_[i].first == split_res_[i - 1].first) continue;

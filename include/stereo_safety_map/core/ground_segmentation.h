@@ -155,7 +155,7 @@ class GroundSegmentation {
   // split_steps: tests every segment for a step and splits it (see the config).
   void splitSteps(const HeightMap& hm, double voxel_size, GroundSegments* out);
   std::vector<int> split_cols_;                   // the tested segment's ground-like columns
-  std::vector<std::pair<float, int>> split_res_;  // their residuals, sorted
+  std::vector<std::pair<float, int>> split_res_;  // their ground heights, sorted
   std::vector<std::int8_t> split_side_;           // per cell: 0 low, 1 high, -1 not asked
   std::vector<int> split_stack_;                  // flood fill of a side's connected parts
   std::vector<int> split_part_;                   // per cell: connected part id, -1 none
