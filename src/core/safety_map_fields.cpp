@@ -345,6 +345,27 @@ ParamFieldList<M> makeMapperFields() {
           "accepted estimates in the camera heading's frame: the constant part of an unreported "
           "tilt (seat load, tyres, a mount calibrated a little off), robust to a ramp or drop "
           "ahead (ours).");
+  l.add("overhang_roof", &M::overhang_roof, &OverhangRoofConfig::enabled)
+      .doc(
+          "a safe cell whose floor the camera sees under the top of an overhang column (a top "
+          "with rays observed passing below it) at most overhang_roof_max_span before it is "
+          "Non-ground: the table top or shelf board stereo saw only at its front edge (ours, "
+          "overhang_roof.h; false = 000).");
+  l.add("overhang_roof_min_clearance", &M::overhang_roof, &OverhangRoofConfig::min_clearance)
+      .closed(0, 5)
+      .unit("m")
+      .doc("overhang_roof: a roof's top stands at least this far above the robot's base (ours).");
+  l.add("overhang_roof_max_span", &M::overhang_roof, &OverhangRoofConfig::max_span)
+      .openClosed(0, 10)
+      .unit("m")
+      .doc(
+          "overhang_roof: the floor seen under an overhang's front edge is Non-ground this far "
+          "behind it: the depth of a top whose far side is not seen (ours).");
+  l.add("overhang_roof_min_free_voxels", &M::overhang_roof, &OverhangRoofConfig::min_free_voxels)
+      .closed(1, 100)
+      .doc(
+          "overhang_roof: voxels below an overhang column's top that rays must have observed "
+          "free (ours).");
   l.setValidator(mapperParameterError);
   return l;
 }

@@ -53,6 +53,7 @@ std::string SafetyMapperConfig::validate() const {
   if (!(err = prefixed("plane_fit", plane_fit.validate())).empty()) return err;
   if (!(err = prefixed("labelling", labelling.validate())).empty()) return err;
   if (!(err = prefixed("relevel", relevel.validate())).empty()) return err;
+  if (!(err = overhang_roof.validate()).empty()) return err;
   if (!std::isfinite(stationary_translation) || stationary_translation < 0.0 ||
       stationary_translation > 100.0) {
     return "stationary_translation must be in [0, 100] m";
@@ -116,6 +117,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.isolated_ground_unknown = false;  // 000 Alg. 2 step 27: unreached is Non-ground
   c.obstacle_memory = false;                    // 000 recomputes the map from the grid
   c.relevel.enabled = false;                    // 000 takes the pose from odometry
+  c.overhang_roof.enabled = false;              // 000: the top voxel alone (Sec. V-A)
   c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
   c.labelling.measured_step_test = false;       // 000 Alg. 2 steps 15-17: planes only
   c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
@@ -279,6 +281,7 @@ void SafetyMapper::reset() {
   levelling_history_.clear();
   timings_ = StageTimings();
   has_last_pose_ = false;
+  last_camera_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   grid_placed_ = false;
   frames_integrated_ = 0;
 }
@@ -395,6 +398,7 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
     return skip(FrameStatus::kCameraOutsideGrid);
   }
   r.integration = grid_.integrate(points_sensor, T_frame);
+  last_camera_ = T_frame.translation();
   observe(points_sensor, T_frame, robot_base_position, stamp);
   if (std::isfinite(stamp) && !(stamp <= latest_time_)) latest_time_ = stamp;
   const double integrate_ms = msSince(t0);
@@ -516,6 +520,13 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   if (!finite) {
     map_.robot_u = 0;
     map_.robot_v = 0;
+  }
+  // SafetyMapperConfig::overhang_roof: seen from the last frame's camera.
+  cells_under_overhangs_ = 0;
+  if (config_.overhang_roof.enabled && finite) {
+    cells_under_overhangs_ =
+        markFloorUnderOverhangs(grid_, height_map_, last_camera_, robot_base_position.z(),
+                                config_.overhang_roof, &map_, &overhang_scratch_);
   }
   cells_remembered_ = 0;
   if (config_.obstacle_memory && finite) {

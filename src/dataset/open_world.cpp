@@ -29,6 +29,25 @@ Eigen::Isometry2d planar(const Eigen::Isometry3d& T) {
   return P;
 }
 
+constexpr double kDegToRad = 0.017453292519943295;
+
+// The small rotation from pose `used` to pose `truth` (fixed frame), split into its components
+// about the camera heading's lateral axis (pitch, positive = the front dips) and its forward axis
+// (roll) [deg], added to *e.
+void addTiltError(const Eigen::Isometry3d& used, const Eigen::Isometry3d& truth,
+                  SceneScore::TiltError* e) {
+  const Eigen::AngleAxisd aa(truth.linear() * used.linear().transpose());
+  const Eigen::Vector3d w = aa.angle() * aa.axis() / kDegToRad;
+  const Eigen::Vector3d axis = used.linear().col(2);  // the optical axis
+  const Eigen::Vector2d fwd = Eigen::Vector2d(axis.x(), axis.y()).normalized();
+  const double roll = fwd.x() * w.x() + fwd.y() * w.y();
+  const double pitch = -fwd.y() * w.x() + fwd.x() * w.y();
+  e->pitch += pitch;
+  e->roll += roll;
+  e->pitch2 += pitch * pitch;
+  e->roll2 += roll * roll;
+}
+
 std::string describe(const ProceduralScene& s) {
   std::ostringstream os;
   os << s.floor_kind << (s.indoor ? " indoor" : " outdoor") << ":";
@@ -189,6 +208,20 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
           }
         }
         if (!ok) continue;
+        if (r.mapper.status == FrameStatus::kIntegrated) {
+          // The tilt the map used (the reported pose, re-levelled when the variant does so)
+          // against the true camera's.
+          const FrameLevellingResult& lv = r.mapper.levelling;
+          const Eigen::Isometry3d used = lv.applied
+                                             ? levelledPose(T_fixed_sensor, lv.roll_deg * kDegToRad,
+                                                            lv.pitch_deg * kDegToRad, lv.dz)
+                                                   .cast<double>()
+                                             : fp.reported_left_optical;
+          SceneScore& sc = result.scores[k];
+          ++sc.tilt_frames;
+          addTiltError(used, fp.true_left_optical, &sc.tilt_used);
+          addTiltError(fp.reported_left_optical, fp.true_left_optical, &sc.tilt_reported);
+        }
         if (!options.image_dir.empty() &&
             std::find(options.image_frames.begin(), options.image_frames.end(),
                       static_cast<int>(i)) != options.image_frames.end()) {

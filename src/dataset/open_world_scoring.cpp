@@ -111,6 +111,17 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   misses.insert(misses.end(), o.misses.begin(), o.misses.end());
   forgotten.insert(forgotten.end(), o.forgotten.begin(), o.forgotten.end());
   detection += o.detection;
+  tilt_frames += o.tilt_frames;
+  tilt_used += o.tilt_used;
+  tilt_reported += o.tilt_reported;
+  return *this;
+}
+
+SceneScore::TiltError& SceneScore::TiltError::operator+=(const TiltError& o) {
+  pitch += o.pitch;
+  roll += o.roll;
+  pitch2 += o.pitch2;
+  roll2 += o.roll2;
   return *this;
 }
 

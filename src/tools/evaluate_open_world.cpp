@@ -242,6 +242,16 @@ double coverage(const ds::SceneScore& s) {
 double noSegment(const ds::SceneScore& s) {
   return rate(s.maps_without_robot_segment, s.maps_after_grace);
 }
+// Tilt error of the camera pose the map used (or of the reported one): the bias (mean) and the
+// RMS of its pitch and roll components [deg] (SceneScore::TiltError).
+struct TiltSummary {
+  double pitch_bias, roll_bias, pitch_rms, roll_rms;
+};
+TiltSummary tiltSummary(const ds::SceneScore::TiltError& e, int n) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (n <= 0) return {nan, nan, nan, nan};
+  return {e.pitch / n, e.roll / n, std::sqrt(e.pitch2 / n), std::sqrt(e.roll2 / n)};
+}
 
 struct Stat {
   ssm::MeanStd ms;
@@ -452,14 +462,18 @@ int main(int argc, char** argv) {
       char line[512];
       std::snprintf(line, sizeof(line),
                     "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d,"
-                    "%d,%.5f,%.5f,%d",
+                    "%d,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f",
                     cell.condition.c_str(), cell.variant.c_str(),
                     static_cast<unsigned long long>(r.seed), r.description.c_str(), s.maps,
                     fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1), fpRate(s.tol1),
                     fnRate(s.local_tol1), fpRate(s.local_tol1), coverage(s), noSegment(s),
                     s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
                     s.obstacles_missed_lenient, s.detection.frames, s.detection.precision(),
-                    s.detection.recall(), s.detection.accepted_false);
+                    s.detection.recall(), s.detection.accepted_false,
+                    tiltSummary(s.tilt_used, s.tilt_frames).pitch_bias,
+                    tiltSummary(s.tilt_used, s.tilt_frames).pitch_rms,
+                    tiltSummary(s.tilt_reported, s.tilt_frames).pitch_bias,
+                    tiltSummary(s.tilt_reported, s.tilt_frames).pitch_rms);
       scene_lines.push_back(line);
     }
   }
@@ -474,7 +488,8 @@ int main(int argc, char** argv) {
            "fp_local_tol1,coverage,"
            "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
            "obstacles_missed_lenient,detector_frames,detector_precision,detector_recall,"
-           "detector_false_obstacles\n";
+           "detector_false_obstacles,pitch_error_bias_deg,pitch_error_rms_deg,"
+           "reported_pitch_error_bias_deg,reported_pitch_error_rms_deg\n";
     for (const std::string& l : scene_lines)
       csv << l << "\n";
   }
@@ -510,6 +525,14 @@ int main(int argc, char** argv) {
   std::ostringstream classes_md;
   classes_md << "\n## Per hazard class (tol 1)\n\n| condition | variant | class | FN | FP "
                 "|\n|---|---|---|---|---|\n";
+  std::ostringstream tilt_md;
+  tilt_md << "\n## Camera tilt (integrated frames, pooled over the scenes)\n\nThe rotation "
+             "from the pose the map used (the reported pose, re-levelled when `relevel` is on) to "
+             "the true camera pose, about the heading's lateral axis (pitch) and forward axis "
+             "(roll): bias (mean) and RMS [deg]; `reported`: the odometry's pose alone.\n\n"
+             "| condition | variant | frames | pitch bias | pitch RMS | roll bias | roll RMS | "
+             "reported: pitch bias | pitch RMS | roll bias | roll RMS |\n"
+             "|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::ostringstream sources_md;
   sources_md << "\n## Where the false positives come from (tol 1, pooled over the scenes)\n\n"
                 "Share of the FP cell-maps by the map cell's segment (not safe: unreached or too "
@@ -553,6 +576,17 @@ int main(int argc, char** argv) {
         sources_md << " | " << share(n);
       sources_md << " |\n";
     }
+    {
+      const TiltSummary u = tiltSummary(total.tilt_used, total.tilt_frames);
+      const TiltSummary t = tiltSummary(total.tilt_reported, total.tilt_frames);
+      char row[320];
+      std::snprintf(row, sizeof(row),
+                    "| %s | %s | %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f |\n",
+                    c.condition.c_str(), c.variant.c_str(), total.tilt_frames, u.pitch_bias,
+                    u.pitch_rms, u.roll_bias, u.roll_rms, t.pitch_bias, t.pitch_rms, t.roll_bias,
+                    t.roll_rms);
+      tilt_md << row;
+    }
     if (total.detection.frames > 0) {
       any_detector = true;
       const ds::DetectionScore& d = total.detection;
@@ -589,6 +623,16 @@ int main(int argc, char** argv) {
     j.kv("obstacle_maps_lenient", total.obstacle_maps_lenient);
     j.kv("obstacle_maps_missed_lenient", total.obstacle_maps_missed_lenient);
     j.kv("obstacle_safe_cells", total.obstacle_safe_cells);
+    {
+      const TiltSummary u = tiltSummary(total.tilt_used, total.tilt_frames);
+      const TiltSummary t = tiltSummary(total.tilt_reported, total.tilt_frames);
+      j.kv("pitch_error_bias_deg", u.pitch_bias).kv("pitch_error_rms_deg", u.pitch_rms);
+      j.kv("roll_error_bias_deg", u.roll_bias).kv("roll_error_rms_deg", u.roll_rms);
+      j.kv("reported_pitch_error_bias_deg", t.pitch_bias);
+      j.kv("reported_pitch_error_rms_deg", t.pitch_rms);
+      j.kv("reported_roll_error_bias_deg", t.roll_bias);
+      j.kv("reported_roll_error_rms_deg", t.roll_rms);
+    }
     if (total.detection.frames > 0) {
       const ds::DetectionScore& d = total.detection;
       j.key("detector").open('{');
@@ -622,11 +666,12 @@ int main(int argc, char** argv) {
   std::ofstream(opt.out + "/metrics.json") << j.str() << "\n";
   const std::string detector_text = any_detector ? detector_md.str() : std::string();
   std::ofstream(opt.out + "/report.md")
-      << md.str() << detector_text << classes_md.str() << sources_md.str();
+      << md.str() << detector_text << classes_md.str() << sources_md.str() << tilt_md.str();
   std::printf("%s", md.str().c_str());
   std::printf("%s", detector_text.c_str());
   std::printf("%s", classes_md.str().c_str());
   std::printf("%s", sources_md.str().c_str());
+  std::printf("%s", tilt_md.str().c_str());
   if (failures > 0) std::fprintf(stderr, "%d scene runs failed\n", failures);
   return failures > 0 ? 1 : 0;
 }

@@ -1075,6 +1075,14 @@ TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {
   EXPECT_TRUE(SafetyMapperConfig().obstacle_memory);
 }
 
+TEST(SafetyMapperOverhangRoof, OnByDefaultOffInThePapersConfiguration) {
+  EXPECT_TRUE(SafetyMapperConfig().overhang_roof.enabled);
+  EXPECT_FALSE(paperFaithful(SafetyMapperConfig()).overhang_roof.enabled);
+  SafetyMapperConfig bad;
+  bad.overhang_roof.max_span = -1.0;
+  EXPECT_NE(bad.validate().find("overhang_roof_max_span"), std::string::npos);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Re-levelling on the ground the chair stands on (FrameLevellingConfig::near_radius and
 // filter_frames): a camera whose true pitch is 1 deg further down than the pose says.

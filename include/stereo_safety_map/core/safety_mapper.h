@@ -9,6 +9,7 @@
 #include "stereo_safety_map/core/ground_segmentation.h"
 #include "stereo_safety_map/core/height_map.h"
 #include "stereo_safety_map/core/observation_age.h"
+#include "stereo_safety_map/core/overhang_roof.h"
 #include "stereo_safety_map/core/plane_fit.h"
 #include "stereo_safety_map/core/safety_labelling.h"
 #include "stereo_safety_map/core/safety_map.h"
@@ -94,6 +95,11 @@ struct SafetyMapperConfig {
   /// enabled false = 000, which takes the pose from odometry as it is): the previous map's robot
   /// segment and its plane are the reference.
   FrameLevellingConfig relevel;
+
+  /// Floor seen under an overhang (overhang_roof.h; ours, enabled false = 000): a safe cell
+  /// whose floor the camera sees under the top of an overhang column at most max_span before it
+  /// is Non-ground: the table top or shelf board that stereo saw only at its front edge.
+  OverhangRoofConfig overhang_roof;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -187,6 +193,8 @@ class SafetyMapper {
   std::size_t ageSafetyMap(double now);
   /// Cells of the last map that the obstacle memory kept Non-ground against the labelling.
   std::size_t cellsRemembered() const { return cells_remembered_; }
+  /// Safe cells of the last map made Non-ground as floor seen under an overhang (overhang_roof).
+  int cellsUnderOverhangs() const { return cells_under_overhangs_; }
   /// Cells the obstacle memory holds (those it keeps Non-ground and those the labelling calls
   /// Non-ground itself).
   std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
@@ -252,6 +260,10 @@ class SafetyMapper {
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
+  // SafetyMapperConfig::overhang_roof: the camera of the last integrated frame (fixed frame).
+  OverhangRoofScratch overhang_scratch_;
+  Eigen::Vector3f last_camera_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  int cells_under_overhangs_ = 0;
   // FrameLevellingConfig::filter_frames: the last accepted per-frame estimates (roll and pitch
   // about the camera heading's axes [rad], dz [m]), oldest first, and a scratch for medians.
   std::vector<Eigen::Vector3d> levelling_history_;

@@ -120,6 +120,18 @@ struct SceneScore {
   std::vector<std::string> misses;     ///< a few lines naming missed obstacles (first per obstacle)
   std::vector<std::string> forgotten;  ///< a few lines naming forgotten cells (first per cell)
   DetectionScore detection;            ///< when the variant ran 003's detector
+  /// The camera tilt the map used against the true one, over the integrated frames: how well
+  /// the re-levelling (SafetyMapperConfig::relevel) removes the unreported chassis pitch and
+  /// roll. Per frame the small rotation from the used to the true camera pose, its components
+  /// about the camera heading's lateral axis (pitch) and forward axis (roll) [deg]; sums and sums
+  /// of squares, for the bias (the constant part) and the RMS. `reported`: the same for the
+  /// odometry's pose as reported (no levelling).
+  struct TiltError {
+    double pitch = 0.0, roll = 0.0, pitch2 = 0.0, roll2 = 0.0;
+    TiltError& operator+=(const TiltError& o);
+  };
+  int tilt_frames = 0;
+  TiltError tilt_used, tilt_reported;
 
   SceneScore& operator+=(const SceneScore& o);
 };
