@@ -398,7 +398,9 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
     return skip(FrameStatus::kCameraOutsideGrid);
   }
   r.integration = grid_.integrate(points_sensor, T_frame);
-  last_camera_ = T_frame.translation();
+  // SafetyMapperConfig::overhang_roof looks from the last camera that saw something: a frame
+  // whose points all failed leaves the map as it was.
+  if (r.integration.points_used > 0) last_camera_ = T_frame.translation();
   observe(points_sensor, T_frame, robot_base_position, stamp);
   if (std::isfinite(stamp) && !(stamp <= latest_time_)) latest_time_ = stamp;
   const double integrate_ms = msSince(t0);
