@@ -765,7 +765,8 @@ void SafetyGate::evaluate(const SafetyMap& map, const Pose2D& pose, double v, do
   }
   if (out->hazard) {
     os << ": " << describe(out->cell) << ", ";
-    if (av > 0.0) {
+    // A path that is mostly a turn (or a speed too small to matter) is told in degrees.
+    if (av > 0.0 && (aw == 0.0 || out->free_distance >= 0.01)) {
       os << out->free_distance << " m along the path";
     } else {
       os << std::setprecision(1) << out->free_angle / kDegToRad << " deg of turn";

@@ -52,6 +52,10 @@ std::string SafetyLabellingConfig::validate() const {
       small_obstacle_min_rise > 10.0) {
     return "small_obstacle_min_rise must be in [0, 10] m";
   }
+  if (!std::isfinite(floor_fragment_tolerance) || floor_fragment_tolerance < 0.0 ||
+      floor_fragment_tolerance > 1.0) {
+    return "floor_fragment_tolerance must be in [0, 1] m";
+  }
   if (!std::isfinite(footprint_bridge) || footprint_bridge < 0.0 || footprint_bridge > 10.0) {
     return "footprint_bridge must be in [0, 10] m (0 = off)";
   }
@@ -100,6 +104,14 @@ int SafetyLabelling::okCount(int s, int r) const {
   const auto it =
       std::lower_bound(first, last, r, [](const Edge& e, int key) { return e.r < key; });
   return (it != last && it->r == r) ? it->ok : 0;
+}
+
+int SafetyLabelling::farCount(int s, int r) const {
+  const auto first = edges_.begin() + edge_begin_[s];
+  const auto last = edges_.begin() + edge_begin_[s + 1];
+  const auto it =
+      std::lower_bound(first, last, r, [](const Edge& e, int key) { return e.r < key; });
+  return (it != last && it->r == r) ? it->far : 0;
 }
 
 bool SafetyLabelling::borderFailed(int s, int r) const {
@@ -162,7 +174,8 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   const int gap = config_.max_gap_cells;
   const int reach = gap + 1;
   const bool measured = config_.measured_step_test;
-  // Local surface heights are needed by the step test and by the small-obstacle rule.
+  // Local surface heights are needed by the step test, the small-obstacle rule and the floor
+  // fragments.
   const bool heights = measured || config_.small_obstacles;
   m.segments.resize(nseg);
   boundary_.assign(n, 0);
@@ -179,11 +192,13 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     info.reachable = false;
     info.island = k < static_cast<int>(segs.segment_island.size()) && segs.segment_island[k] != 0;
     info.obstacle = false;
+    info.merged_into = -1;
     const GroundPlane* ps = planeOf(k);
     for (const int c : info.cells) {
       const int u = c % width, v = c / width;
       int nb_seg[kMaxNeighbourSegments];
       bool nb_close[kMaxNeighbourSegments];  // a cell of it has a measured height within h_T
+      bool nb_near[kMaxNeighbourSegments];   // ... within floor_fragment_tolerance
       float nb_rise[kMaxNeighbourSegments];  // largest rise of c over its cells
       int num_nb_seg = 0;
       const float zc = heights ? localSurfaceHeight(hm, segs, c) : 0.0f;
@@ -196,13 +211,13 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           if (num_nb_seg >= kMaxNeighbourSegments) return;
           nb_seg[num_nb_seg] = r;
           nb_rise[num_nb_seg] = std::numeric_limits<float>::quiet_NaN();
+          nb_near[num_nb_seg] = false;
           nb_close[num_nb_seg++] = false;
         }
         if (heights) {
           const float zn = localSurfaceHeight(hm, segs, cn);
-          if (measured) {
-            nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: no
-          }
+          nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: no
+          nb_near[j] = nb_near[j] || std::abs(zc - zn) < config_.floor_fragment_tolerance;
           const float rise = zc - zn;
           if (!(nb_rise[j] >= rise)) nb_rise[j] = rise;  // NaN-safe max
         }
@@ -259,9 +274,9 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           // by their planes alone: their top voxels' points, the upper tail of the lower
           // side's noise, stand within h_T of the upper side's.
           ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
-               (nb_close[j] && !segs.splitSiblings(k, nb_seg[j]));
+               (measured && nb_close[j] && !segs.splitSiblings(k, nb_seg[j]));
         }
-        contacts_.push_back(Contact{k, nb_seg[j], ok, nb_rise[j], c});
+        contacts_.push_back(Contact{k, nb_seg[j], ok, nb_rise[j], c, nb_near[j] ? 1 : 0});
       }
     }
   }
@@ -351,7 +366,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         seen.emplace_back(f, pair_ok ? r : -1 - r);
       }
       if (any && !hasContact(c, r, rs)) {
-        contacts_.push_back(Contact{r, rs, ok, std::numeric_limits<float>::quiet_NaN(), c});
+        contacts_.push_back(Contact{r, rs, ok, std::numeric_limits<float>::quiet_NaN(), c, 0});
       }
     }
     // The footprint's side: one contact per footprint cell and segment, ok when any of its
@@ -375,7 +390,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         }
         if (first && !hasContact(f, rs, r)) {
           contacts_.push_back(
-              Contact{rs, r, ok ? 1 : 0, std::numeric_limits<float>::quiet_NaN(), f});
+              Contact{rs, r, ok ? 1 : 0, std::numeric_limits<float>::quiet_NaN(), f, 0});
         }
       }
       i = j;
@@ -390,16 +405,17 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   edge_begin_.assign(nseg + 1, 0);
   for (std::size_t i = 0; i < contacts_.size();) {
     std::size_t j = i;
-    int ok = 0, failed = 0;
+    int ok = 0, failed = 0, far = 0;
     float rise = std::numeric_limits<float>::quiet_NaN();
     while (j < contacts_.size() && contacts_[j].s == contacts_[i].s &&
            contacts_[j].r == contacts_[i].r) {
       ok += contacts_[j].ok;
       failed += contacts_[j].ok ? 0 : 1;
+      far += contacts_[j].close ? 0 : 1;
       if (!(rise >= contacts_[j].rise)) rise = contacts_[j].rise;  // NaN-safe max
       ++j;
     }
-    edges_.push_back(Edge{contacts_[i].r, ok, failed, rise});
+    edges_.push_back(Edge{contacts_[i].r, ok, failed, rise, far});
     ++edge_begin_[contacts_[i].s + 1];
     i = j;
   }
@@ -433,6 +449,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   // compare its neighbours with and nothing is reachable.
   neighbours_examined_.assign(nseg, 0);
   to_examine_.clear();
+  const bool robot_fragment = config_.robot_fragment_passage && rs >= 0 && small_[rs] != 0;
   if (rs >= 0 && planeOf(rs) != nullptr) {
     seg_state_[rs] = kStSafe;
     to_examine_.push_back(rs);
@@ -446,7 +463,12 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       // num_RS: num_T is the robot's width in cells (Sec. VI), so the crossable cells are
       // counted on each side of the border and the smaller count is the passage width (the
       // union of both sides would count every position of the border twice).
-      const int num_rs = std::min(edges_[e].ok, okCount(r, s));
+      int num_rs = std::min(edges_[e].ok, okCount(r, s));
+      // SafetyLabellingConfig::robot_fragment_passage: a robot's segment that steps 3-4 would
+      // call small or thin is a fragment of the ground the robot stands on, not a passage;
+      // across a border with no failed contact on its side the width is counted on the other
+      // side.
+      if (s == rs && robot_fragment && edges_[e].failed == 0) num_rs = okCount(r, s);
       if (num_rs >= config_.min_passage_cells && seg_state_[r] == kStUnexamined) {
         seg_state_[r] = kStSafe;  // step 22
         to_examine_.push_back(r);
@@ -477,6 +499,46 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         seg_state_[k] = kStNonGround;
         m.segments[k].obstacle = true;
       }
+    }
+  }
+
+  // SafetyLabellingConfig::floor_fragments: what steps 3-4 left Unknown amid safe ground, within
+  // h_T of it all along its border, is that ground. Fragments may border each other; the loop
+  // passes the host on from fragment to fragment (a cluster with no safe border stays Unknown).
+  host_.assign(nseg, -1);
+  if (config_.floor_fragments && heights) {
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      for (int k = 0; k < nseg; ++k) {
+        if (!small_[k] || seg_state_[k] != kStUnknown || host_[k] >= 0 || k == rs) continue;
+        bool all = edge_begin_[k] < edge_begin_[k + 1];
+        int host = -1, host_contacts = 0;
+        for (int e = edge_begin_[k]; e < edge_begin_[k + 1] && all; ++e) {
+          const Edge& ed = edges_[e];
+          const bool safe = seg_state_[ed.r] == kStSafe;
+          const bool fragment = small_[ed.r] && seg_state_[ed.r] == kStUnknown;
+          // Both sides of the border: every contact of k's and of r's within h_T.
+          all = (safe || fragment) && ed.far == 0 && farCount(ed.r, k) == 0;
+          if (!all) break;
+          const int h = safe ? ed.r : host_[ed.r];
+          const int contacts = ed.ok + ed.failed;
+          if (h >= 0 && contacts > host_contacts) {
+            host = h;
+            host_contacts = contacts;
+          }
+        }
+        if (all && host >= 0) {
+          host_[k] = host;
+          changed = true;
+        }
+      }
+    }
+    for (int k = 0; k < nseg; ++k) {
+      if (host_[k] < 0) continue;
+      seg_state_[k] = kStSafe;
+      m.segments[k].merged_into = host_[k];
+      m.segments[k].plane = m.segments[host_[k]].plane;
     }
   }
 

@@ -229,6 +229,25 @@ ParamFieldList<M> makeMapperFields() {
       .doc(
           "the smallest rise above every safe segment beside it that makes such a segment an "
           "obstacle's top; smaller bumps are within stereo's noise at range (ours).");
+  l.add("floor_fragments", &M::labelling, &SafetyLabellingConfig::floor_fragments)
+      .doc(
+          "a segment Alg. 2 steps 3-4 call Unknown whose every border runs along safe ground (or "
+          "other such fragments) with measured surface heights within floor_fragment_tolerance is "
+          "that ground: floor noise a voxel high is not a hole ringed with drop-off edges (ours; "
+          "false = 000).");
+  l.add("floor_fragment_tolerance", &M::labelling, &SafetyLabellingConfig::floor_fragment_tolerance)
+      .closed(0, 1)
+      .unit("m")
+      .doc(
+          "floor_fragments: how close the measured surfaces of a fragment and of the ground "
+          "around it must be at every contact; below h_T, as a small obstacle's top reads low "
+          "in the same noise (ours).");
+  l.add("robot_fragment_passage", &M::labelling, &SafetyLabellingConfig::robot_fragment_passage)
+      .doc(
+          "a robot's segment that Alg. 2 steps 3-4 would call small or thin (the floor around "
+          "the robot seen a voxel above the base) counts num_T on the other side of a border "
+          "with no failed contact; off: such a map, which the pose does not fit, stays "
+          "unreachable (ours; false = 000).");
   l.add("footprint_bridge", &M::labelling, &SafetyLabellingConfig::footprint_bridge)
       .closed(0, 10)
       .unit("m")

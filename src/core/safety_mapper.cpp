@@ -108,10 +108,12 @@ bool risesAboveLocalGround(const SafetyMap& m, const HeightMap& hm, int c, float
 
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
-  c.segmentation.segment_islands = false;  // 000 Alg. 1 grows from the robot's island only
-  c.segmentation.footprint_radius = 0.0;   // 000 seeds on observed ground only
-  c.segmentation.split_steps = false;      // 000 Alg. 1: a segment is one indexed height
-  c.labelling.small_obstacles = false;     // 000 Alg. 2 steps 3-4: small or thin is Unknown
+  c.segmentation.segment_islands = false;      // 000 Alg. 1 grows from the robot's island only
+  c.segmentation.footprint_radius = 0.0;       // 000 seeds on observed ground only
+  c.segmentation.split_steps = false;          // 000 Alg. 1: a segment is one indexed height
+  c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
+  c.labelling.floor_fragments = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
+  c.labelling.robot_fragment_passage = false;  // 000 Alg. 2 step 21: num_T on both sides
   c.labelling.footprint_bridge = 0.0;
   c.labelling.bridge_tilt_deg = 0.0;
   c.labelling.isolated_ground_unknown = false;  // 000 Alg. 2 step 27: unreached is Non-ground

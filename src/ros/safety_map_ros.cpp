@@ -249,6 +249,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     }
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     cells_aged_ = processor_->mapper().cellsAged();
+    cells_under_overhangs_ = processor_->mapper().cellsUnderOverhangs();
   }
   // The landmark filter confirmed no point yet: nothing for the grid, nothing refused.
   if (result.landmark_filter_ran && result.points == 0) return;
@@ -420,6 +421,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
     cells_aged_ = 0;
+    cells_under_overhangs_ = 0;
   }
   ROS_INFO_STREAM(name_ << ": map reset on request");
   return true;
@@ -512,6 +514,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++map_resets_;
     cells_aged_ = 0;
+    cells_under_overhangs_ = 0;
   } else {
     if (processor_->mapper().safetyMap().width > 0) {
       processor_->recompute(robot_position_, last_stamp_.toSec());
@@ -534,6 +537,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   stat.add("map resets", map_resets_);
   stat.addf("max cell age [s]", "%.1f", max_cell_age_.load());
   stat.add("cells aged to Unknown (current map)", cells_aged_);
+  stat.add("floor under an overhang's front edge made Non-ground, last map (overhang_roof)",
+           cells_under_overhangs_);
   stat.add("published safety_map", map_stale_ ? "stale: all Unknown (no frame integrated for "
                                                 "stale_input_timeout)"
                                               : "live");

@@ -459,6 +459,8 @@ int main(int argc, char** argv) {
       cell.scenes.push_back(r.scores[v]);
       cell.seeds.push_back(r.seed);
       const ds::SceneScore& s = r.scores[v];
+      const TiltSummary tu = tiltSummary(s.tilt_used, s.tilt_frames);
+      const TiltSummary tr = tiltSummary(s.tilt_reported, s.tilt_frames);
       char line[512];
       std::snprintf(line, sizeof(line),
                     "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d,"
@@ -469,11 +471,8 @@ int main(int argc, char** argv) {
                     fnRate(s.local_tol1), fpRate(s.local_tol1), coverage(s), noSegment(s),
                     s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
                     s.obstacles_missed_lenient, s.detection.frames, s.detection.precision(),
-                    s.detection.recall(), s.detection.accepted_false,
-                    tiltSummary(s.tilt_used, s.tilt_frames).pitch_bias,
-                    tiltSummary(s.tilt_used, s.tilt_frames).pitch_rms,
-                    tiltSummary(s.tilt_reported, s.tilt_frames).pitch_bias,
-                    tiltSummary(s.tilt_reported, s.tilt_frames).pitch_rms);
+                    s.detection.recall(), s.detection.accepted_false, tu.pitch_bias, tu.pitch_rms,
+                    tr.pitch_bias, tr.pitch_rms);
       scene_lines.push_back(line);
     }
   }

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <utility>
 
@@ -268,6 +269,18 @@ TEST(SafetyGate, RotationInPlaceWhereTheSweptFootprintIsSafe) {
   EXPECT_LT(d.free_angle, 40.0 * M_PI / 180.0);
   // Turning the other way is clear.
   EXPECT_EQ(gate.evaluate(map, kOrigin, 0.0, -1.0, 0.1).state, GateState::kAllowed);
+  // A speed below any physical meaning (the smallest denormal, CI's fuzz_safety_gate crash) is a
+  // rotation in place: both parts get the one scale, and the speed may round to zero.
+  const double tiny = std::numeric_limits<double>::denorm_min();
+  const GateDecision dt = gate.evaluate(map, kOrigin, tiny, 1.0, 0.1);
+  ASSERT_EQ(d.state, GateState::kSlowed) << d.text;
+  EXPECT_EQ(dt.state, GateState::kSlowed) << dt.text;
+  EXPECT_GT(dt.scale, 0.0);
+  EXPECT_LT(dt.scale, 1.0);
+  EXPECT_EQ(dt.v, dt.scale * tiny);
+  EXPECT_EQ(dt.omega, dt.scale * 1.0);
+  EXPECT_NEAR(dt.omega, d.omega, 1e-9);
+  EXPECT_NE(dt.text.find("deg of turn"), std::string::npos) << dt.text;  // not "0.00 m"
   // Rotation in place over unseen cells (the sides of a chair that just started) stops.
   SafetyMap unseen = levelMap();
   setRect(&unseen, -4.0, -4.0, 4.0, -kHalfWidth - 0.15, SafetyLabel::kUnknown);

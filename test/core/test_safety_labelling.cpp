@@ -106,6 +106,8 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   EXPECT_DOUBLE_EQ(c.max_step_height, 0.05);
   EXPECT_EQ(c.min_passage_cells, 5);
   EXPECT_DOUBLE_EQ(c.level_slope_deg, 3.0);
+  EXPECT_TRUE(c.floor_fragments);          // ours, on
+  EXPECT_FALSE(c.robot_fragment_passage);  // ours, off: the safe side
   auto bad = [](auto mutate, const char* name) {
     SafetyLabellingConfig b;
     mutate(b);
@@ -121,6 +123,7 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.drop_off_min_drop = -1.0; }, "drop_off_min_drop");
   bad([](auto& b) { b.max_gap_cells = 11; }, "max_gap_cells");
   bad([](auto& b) { b.max_gap_cells = -1; }, "max_gap_cells");
+  bad([](auto& b) { b.floor_fragment_tolerance = 1.5; }, "floor_fragment_tolerance");
   c.max_step_height = -1.0;
   EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
 }
@@ -702,8 +705,9 @@ TEST(SafetyLabellingSmallObstacles, APolesTopIsNonGroundNotUnknown) {
 }
 
 // A small patch of ground one voxel up but measured only 3 cm higher (a voxel boundary in the
-// noise) is a small patch of ground, not an obstacle: it stays Unknown.
-TEST(SafetyLabellingSmallObstacles, ASmallPatchOfGroundStaysUnknown) {
+// noise) is a small patch of ground, not an obstacle: Unknown (000 Alg. 2 step 3), and with
+// floor_fragments (ours) the floor around it.
+TEST(SafetyLabellingSmallObstacles, ASmallPatchOfGroundIsNoObstacle) {
   const std::vector<std::string> rows = {"000000000000", "000000000000", "00000....000",
                                          "00000.11.000", "00000.11.000", "00000....000",
                                          "000000000000", "000000000000"};
@@ -717,9 +721,127 @@ TEST(SafetyLabellingSmallObstacles, ASmallPatchOfGroundStaysUnknown) {
   w.hm.setSurfaceHeight(7, 4, 0.07f);
   SafetyLabellingConfig c;
   c.footprint_bridge = 0.0;
+  c.floor_fragments = false;
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(6, 3), L::kUnknown);
   EXPECT_FALSE(w.map.segments[w.segAt(6, 3)].obstacle);
+  c.floor_fragments = true;  // 3 cm: not within floor_fragment_tolerance (0.03 m)
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(6, 3), L::kUnknown);
+  c.floor_fragment_tolerance = 0.04;
+  ASSERT_TRUE(w.label(c));
+  EXPECT_EQ(w.at(6, 3), L::kLevel);    // within 4 cm of the floor across the unobserved ring
+  EXPECT_EQ(w.at(5, 3), L::kUnknown);  // the ring itself stays Unknown
+  EXPECT_FALSE(w.map.segments[w.segAt(6, 3)].obstacle);
+  EXPECT_EQ(w.map.segments[w.segAt(6, 3)].merged_into, w.segAt(1, 3));
+}
+
+// SafetyLabellingConfig::floor_fragments. A level floor (indexed height 0, measured 0.04 m)
+// with one-voxel-high fragments of 2 cells (measured `bump` m) touching it on every side.
+struct FragmentFloor {
+  World w;
+  explicit FragmentFloor(float bump,
+                         const std::vector<std::string>& rows = {"0000000000000", "0000000000000",
+                                                                 "0000001100000", "0000000000000",
+                                                                 "0000000000000", "0000000000000"})
+      : w(rows, 1, 1, 0, islands()) {
+    setSurfaces(&w.hm, 0.04);
+    for (int v = 0; v < w.hm.height(); ++v)
+      for (int u = 0; u < w.hm.width(); ++u)
+        if (w.hm.at(u, v) == 1) w.hm.setSurfaceHeight(u, v, bump);
+  }
+  static GroundSegmentationConfig islands() {
+    GroundSegmentationConfig sc;
+    sc.footprint_radius = 0.0;
+    return sc;
+  }
+  static SafetyLabellingConfig config(bool on) {
+    SafetyLabellingConfig c;
+    c.footprint_bridge = 0.0;
+    c.floor_fragments = on;
+    c.robot_fragment_passage = on;
+    return c;
+  }
+};
+
+TEST(SafetyLabellingFloorFragments, AFragmentCloseToTheFloorIsTheFloor) {
+  FragmentFloor f(0.06f);  // 2 cm above the floor's 0.04 m
+  ASSERT_NE(f.w.segAt(6, 2), f.w.segAt(1, 1));
+  ASSERT_TRUE(f.w.label(FragmentFloor::config(false)));
+  EXPECT_EQ(f.w.at(6, 2), L::kUnknown);  // 000 Alg. 2 step 3: 2 cells < n_small
+  // 000's potential drop-off edges ring the hole only where a lower column is near; here the
+  // hole's cells are the floor once the rule is on.
+  ASSERT_TRUE(f.w.label(FragmentFloor::config(true)));
+  EXPECT_EQ(f.w.at(6, 2), L::kLevel);
+  EXPECT_EQ(f.w.at(7, 2), L::kLevel);
+  const SegmentInfo& frag = f.w.map.segments[f.w.segAt(6, 2)];
+  EXPECT_EQ(frag.merged_into, f.w.segAt(1, 1));
+  EXPECT_TRUE(frag.reachable);
+  EXPECT_EQ(frag.plane.c, f.w.map.segments[f.w.segAt(1, 1)].plane.c);  // the host's plane
+  EXPECT_EQ(f.w.map.segments[f.w.segAt(1, 1)].merged_into, -1);
+}
+
+TEST(SafetyLabellingFloorFragments, AFragmentFartherFromTheFloorStaysUnknown) {
+  // 4 cm above: within h_T, but a small obstacle's top reads that low in stereo's noise.
+  FragmentFloor up(0.08f);
+  ASSERT_TRUE(up.w.label(FragmentFloor::config(true)));
+  EXPECT_EQ(up.w.at(6, 2), L::kUnknown);
+  EXPECT_EQ(up.w.map.segments[up.w.segAt(6, 2)].merged_into, -1);
+  SafetyLabellingConfig loose = FragmentFloor::config(true);
+  loose.floor_fragment_tolerance = 0.05;  // h_T
+  ASSERT_TRUE(up.w.label(loose));
+  EXPECT_EQ(up.w.at(6, 2), L::kLevel);
+  // A pothole's bottom 6 cm below the floor (indexed one voxel down).
+  FragmentFloor down(-0.02f, {"0000000000000", "0000000000000", "000000aa00000", "0000000000000",
+                              "0000000000000", "0000000000000"});
+  ASSERT_TRUE(down.w.label(FragmentFloor::config(true)));
+  EXPECT_NE(down.w.at(6, 2), L::kLevel);
+  EXPECT_NE(down.w.at(6, 2), L::kInclined);
+}
+
+// A one-cell fragment at the edge of a street 30 cm lower (indexed -3): the street's columns
+// beside the floor are non-traversable (Alg. 1 compared them and left them out), no segment, so
+// the fragment borders the floor alone and becomes floor; the drop-off margin then makes it
+// Non-ground like any floor cell at that edge. Never safe.
+TEST(SafetyLabellingFloorFragments, AFragmentAtADropIsNotSafe) {
+  FragmentFloor f(0.06f, {"00000000ccccc", "00000000ccccc", "0000001cccccc", "00000000ccccc",
+                          "00000000ccccc", "00000000ccccc"});
+  for (int v = 0; v < f.w.hm.height(); ++v)
+    for (int u = 0; u < f.w.hm.width(); ++u)
+      if (f.w.hm.at(u, v) == -3) f.w.hm.setSurfaceHeight(u, v, -0.26f);
+  SafetyLabellingConfig c = FragmentFloor::config(true);
+  ASSERT_TRUE(c.drop_off_margin);
+  ASSERT_TRUE(f.w.label(c));
+  EXPECT_EQ(f.w.at(1, 1), L::kLevel);
+  EXPECT_FALSE(isSafe(f.w.at(10, 2)));  // the street, below a failed step
+  EXPECT_EQ(f.w.at(6, 2), L::kNonGround);
+  EXPECT_EQ(f.w.at(7, 1), L::kNonGround);  // the floor's own edge cells alike
+}
+
+// The robot's own segment a fragment: the seed rule picks the two cells at the base's indexed
+// height, and the floor around was seen a voxel higher (measured 3 cm above them).
+TEST(SafetyLabellingRobotFragmentPassage, ARobotSegmentThatIsAFragmentStillReachesTheFloor) {
+  const std::vector<std::string> rows = {"1111111111111", "1111111111111", "1100111111111",
+                                         "1111111111111", "1111111111111", "1111111111111"};
+  World w(rows, 2, 2, 0, FragmentFloor::islands());
+  for (int v = 0; v < w.hm.height(); ++v)
+    for (int u = 0; u < w.hm.width(); ++u)
+      w.hm.setSurfaceHeight(u, v, w.hm.at(u, v) == 0 ? 0.04f : 0.07f);
+  ASSERT_EQ(w.segAt(2, 2), w.segs.robot_segment);
+  ASSERT_NE(w.segAt(8, 3), w.segs.robot_segment);
+  ASSERT_TRUE(w.label(FragmentFloor::config(false)));
+  EXPECT_FALSE(isSafe(w.at(8, 3)));  // num_T: the robot's two cells are no passage
+  ASSERT_TRUE(w.label(FragmentFloor::config(true)));
+  EXPECT_EQ(w.at(8, 3), L::kLevel);
+  EXPECT_EQ(w.at(2, 2), L::kLevel);
+  // The floor 10 cm above the robot's cells instead: a step, still not crossed.
+  for (int v = 0; v < w.hm.height(); ++v)
+    for (int u = 0; u < w.hm.width(); ++u)
+      if (w.hm.at(u, v) == 1) w.hm.setSurfaceHeight(u, v, 0.14f);
+  w.planes.assign(w.planes.size(), horizontal(0.14));
+  w.planes[w.segs.robot_segment] = horizontal(0.04);
+  ASSERT_TRUE(w.label(FragmentFloor::config(true)));
+  EXPECT_FALSE(isSafe(w.at(8, 3)));
 }
 
 // The camera's blind zone: the robot's footprint (cells 0..5 around u = 2) and the floor the

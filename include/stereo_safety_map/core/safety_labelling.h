@@ -57,6 +57,42 @@ struct SafetyLabellingConfig {
   /// the chair on level floor); a 10 cm obstacle's top stands 8-10 cm above it. Bumps of 5-8 cm
   /// are within the noise and stay Unknown.
   double small_obstacle_min_rise = 0.08;
+  /// Fragments of the floor's noise are the floor (ours; false = 000 Alg. 2 steps 3-4 alone).
+  /// Alg. 1 cuts a segment wherever the indexed height w changes, so a column whose top voxel is
+  /// one voxel higher than its neighbours' (the floor's points spread over two voxels by depth
+  /// noise or by a chassis tilt odometry does not report: 1 deg moves ground 3 m away by 5 cm)
+  /// becomes a segment of a cell or two, which step 3 calls Unknown. Amid a level floor those
+  /// holes read as unsafe, ring themselves with potential drop-off edges and stop the gate. With
+  /// this on, a segment steps 3-4 left Unknown (small, thin or without a plane), not an
+  /// obstacle's top (small_obstacles), is safe like the ground around it when every segment it
+  /// borders (touching or across max_gap_cells) is safe or another such fragment, at least one
+  /// is safe, and at every contact of the border the measured surface heights (see
+  /// measured_step_test) of the two sides differ by less than floor_fragment_tolerance (below
+  /// h_T, the ground truth's own test of a drivable transition). It takes the label and plane
+  /// of the safe segment it shares the most contacts with (SegmentInfo::merged_into). A
+  /// fragment next to anything not safe (a drop's lower side, an unreached segment, the
+  /// footprint's bridge) or standing or sunk by the tolerance or more anywhere along its border
+  /// stays Unknown (or Non-ground); beside a non-traversable column (no segment) it is floor
+  /// like any floor cell there, and the drop-off margin applies to it alike. Needs the
+  /// measured heights: inert when measured_step_test and small_obstacles are both off.
+  bool floor_fragments = true;
+  /// [m], [0, 1]: how close the measured surfaces of a fragment and of the ground around it
+  /// must be at every contact of their border. Below h_T: stereo's noise and the tilt that moves
+  /// the floor a voxel up move a small obstacle's top down towards it too (a 9.5 cm bag read
+  /// within h_T of the floor beside it on the dev split), and a fragment left Unknown is unsafe.
+  double floor_fragment_tolerance = 0.03;
+  /// The robot's own segment a fragment (ours, off; false = 000 Alg. 2 step 21). The seed rule
+  /// (GroundSegmentationConfig::seed_radius) takes the cell at the base's indexed height, and
+  /// where the floor around the robot was seen a voxel higher (from afar, under a chassis tilt
+  /// odometry does not report) only a cell or two are left there: a robot's segment too short
+  /// for num_T at any border, so the whole map is Non-ground. With this on, num_T is counted on
+  /// the other side of a border along which none of the fragment's contacts failed (the robot
+  /// stands there; the short border is no narrow passage; h_T still separates a step or drop).
+  /// Off by default: those are the frames whose map disagrees with the pose by a voxel, and on
+  /// the dev split the maps it gives back (FP 19.89 -> 17.80 %) read a 6 cm step and an 8.5 cm
+  /// box as floor (FN 2.85 -> 3.43 %): calling the area unsafe is the safe answer to a map the
+  /// pose does not fit.
+  bool robot_fragment_passage = false;
   /// Across the camera's blind zone (ours; 0 = off, 000 Sec. VI's touching neighbours). A camera
   /// on the chair sees the ground only from 0.7-1.9 m ahead of the base (its height and pitch);
   /// until the robot has driven over the ground it saw, the cells between its footprint
@@ -145,14 +181,18 @@ class SafetyLabelling {
     int ok;      // 1 when the planes of s and r differ by less than h_T at the cell's centre
     float rise;  // s's local surface height minus r's there [m] (NaN when not measured)
     int cell;    // the boundary cell of s
+    int close;   // 1 when a cell of r beside it has a measured surface within
+                 // floor_fragment_tolerance of its own
   };
   struct Edge {  // all contacts of s with r, s's side only
     int r;
     int ok;
     int failed;  // contacts that are not crossable
     float rise;  // the largest rise of s over r along the border (NaN when none measured)
+    int far;     // contacts not close (floor_fragments)
   };
   int okCount(int s, int r) const;        // s's side of the s-r border, 0 when not neighbours
+  int farCount(int s, int r) const;       // s's side: contacts not within h_T, 0 when none
   bool borderFailed(int s, int r) const;  // a contact of the s-r border (either side) failed
   // isolated_ground_unknown, after Alg. 2 steps 5-26: turns the groups of unreached segments
   // without a border to safe ground that a drivable slope could reach into Unknown.
@@ -171,6 +211,7 @@ class SafetyLabelling {
   std::vector<int> edge_begin_;
   std::vector<std::uint8_t> seg_state_;  // per segment, internal labels of Alg. 2
   std::vector<std::uint8_t> small_;      // per segment: Unknown by steps 3-4 or for no plane
+  std::vector<int> host_;                // per segment: floor_fragments' host, -1 when none
   std::vector<int> bridge_from_;         // footprint boundary cells (footprint_bridge)
   std::vector<int> bridge_to_;           // boundary cells of other segments near the footprint
   std::vector<std::uint8_t> neighbours_examined_;

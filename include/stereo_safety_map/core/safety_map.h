@@ -53,6 +53,9 @@ struct SegmentInfo {
   /// Non-ground as the top of an obstacle (SafetyLabellingConfig::small_obstacles), not for
   /// its slope or reachability.
   bool obstacle = false;
+  /// A fragment of the floor's noise labelled as this safe segment, whose plane it carries
+  /// (SafetyLabellingConfig::floor_fragments); -1 otherwise.
+  int merged_into = -1;
 };
 
 /// The result of one labelling pass. Cells are row-major: index = (v - min_v) * width + (u -

@@ -177,8 +177,9 @@ class SafetyMapRos : public FrameNodeletShell<SafetyMapFrame> {
   // Counters and diagnostics (guarded by stats_mutex_, with the shell's counts_).
   std::uint64_t frames_stationary_ = 0;
   std::uint64_t map_resets_ = 0;
-  std::size_t cells_aged_ = 0;  ///< safe cells of the current map turned Unknown by age
-  ros::WallTime last_used_;     ///< last frame integrated or skipped as stationary
+  std::size_t cells_aged_ = 0;     ///< safe cells of the current map turned Unknown by age
+  int cells_under_overhangs_ = 0;  ///< SafetyMapper::cellsUnderOverhangs of the last map
+  ros::WallTime last_used_;        ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
   double landmark_kept_last_ = 0.0;          ///< fraction of the last frame's points kept
