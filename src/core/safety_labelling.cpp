@@ -503,8 +503,9 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   }
 
   // SafetyLabellingConfig::floor_fragments: what steps 3-4 left Unknown amid safe ground, within
-  // h_T of it all along its border, is that ground. Fragments may border each other; the loop
-  // passes the host on from fragment to fragment (a cluster with no safe border stays Unknown).
+  // floor_fragment_tolerance of it all along its border, is that ground. Fragments may border each
+  // other; the loop passes the host on from fragment to fragment (a cluster with no safe border
+  // stays Unknown).
   host_.assign(nseg, -1);
   if (config_.floor_fragments && heights) {
     bool changed = true;
@@ -518,7 +519,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           const Edge& ed = edges_[e];
           const bool safe = seg_state_[ed.r] == kStSafe;
           const bool fragment = small_[ed.r] && seg_state_[ed.r] == kStUnknown;
-          // Both sides of the border: every contact of k's and of r's within h_T.
+          // Both sides of the border: every contact of k's and of r's within the tolerance.
           all = (safe || fragment) && ed.far == 0 && farCount(ed.r, k) == 0;
           if (!all) break;
           const int h = safe ? ed.r : host_[ed.r];
