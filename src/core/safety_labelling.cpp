@@ -98,29 +98,28 @@ float SafetyLabelling::localSurfaceHeight(const HeightMap& hm, const GroundSegme
   return z;
 }
 
-int SafetyLabelling::okCount(int s, int r) const {
+const SafetyLabelling::Edge* SafetyLabelling::edgeOf(int s, int r) const {
   const auto first = edges_.begin() + edge_begin_[s];
   const auto last = edges_.begin() + edge_begin_[s + 1];
   const auto it =
       std::lower_bound(first, last, r, [](const Edge& e, int key) { return e.r < key; });
-  return (it != last && it->r == r) ? it->ok : 0;
+  return (it != last && it->r == r) ? &*it : nullptr;
+}
+
+int SafetyLabelling::okCount(int s, int r) const {
+  const Edge* e = edgeOf(s, r);
+  return e != nullptr ? e->ok : 0;
 }
 
 int SafetyLabelling::farCount(int s, int r) const {
-  const auto first = edges_.begin() + edge_begin_[s];
-  const auto last = edges_.begin() + edge_begin_[s + 1];
-  const auto it =
-      std::lower_bound(first, last, r, [](const Edge& e, int key) { return e.r < key; });
-  return (it != last && it->r == r) ? it->far : 0;
+  const Edge* e = edgeOf(s, r);
+  return e != nullptr ? e->far : 0;
 }
 
 bool SafetyLabelling::borderFailed(int s, int r) const {
   auto failedOn = [&](int a, int b) {
-    const auto first = edges_.begin() + edge_begin_[a];
-    const auto last = edges_.begin() + edge_begin_[a + 1];
-    const auto it =
-        std::lower_bound(first, last, b, [](const Edge& e, int key) { return e.r < key; });
-    return it != last && it->r == b && it->failed > 0;
+    const Edge* e = edgeOf(a, b);
+    return e != nullptr && e->failed > 0;
   };
   return failedOn(s, r) || failedOn(r, s);
 }

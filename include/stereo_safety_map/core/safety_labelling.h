@@ -191,9 +191,10 @@ class SafetyLabelling {
     float rise;  // the largest rise of s over r along the border (NaN when none measured)
     int far;     // contacts not close (floor_fragments)
   };
-  int okCount(int s, int r) const;        // s's side of the s-r border, 0 when not neighbours
-  int farCount(int s, int r) const;       // s's side: contacts not within h_T, 0 when none
-  bool borderFailed(int s, int r) const;  // a contact of the s-r border (either side) failed
+  const Edge* edgeOf(int s, int r) const;  // s's side of the s-r border, nullptr when none
+  int okCount(int s, int r) const;         // s's side of the s-r border, 0 when not neighbours
+  int farCount(int s, int r) const;        // s's side: contacts not within the fragment tolerance
+  bool borderFailed(int s, int r) const;   // a contact of the s-r border (either side) failed
   // isolated_ground_unknown, after Alg. 2 steps 5-26: turns the groups of unreached segments
   // without a border to safe ground that a drivable slope could reach into Unknown.
   void labelIsolatedGround(const HeightMap& hm, const SafetyMap& m, const GroundSegments& segs);
