@@ -85,6 +85,19 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
       if (!grid.occupiedExtent(u, v, w_lo, w_hi, &top, &bottom)) continue;
       row[u - lo.u] = top;
       row_low[u - lo.u] = bottom;
+      if (config_.observation_means) {
+        // Every point counts once (HeightMapConfig::observation_means).
+        const VoxelMoments m = grid.moments(VoxelIndex{u, v, top});
+        float sum = m.sz, weight = m.weight;
+        if (weight > 0.0f) row_z[u - lo.u] = sum / weight;
+        if (top - 1 >= w_lo) {
+          const VoxelMoments below = grid.moments(VoxelIndex{u, v, top - 1});
+          sum += below.sz;
+          weight += below.weight;
+        }
+        if (weight > 0.0f) row_g[u - lo.u] = sum / weight;
+        continue;
+      }
       const VoxelPointList pts = grid.points(VoxelIndex{u, v, top});
       float sum = 0.0f;
       for (const VoxelPoint& p : pts)

@@ -26,26 +26,31 @@ void PlaneFitAccumulator::clear() {
 }
 
 void PlaneFitAccumulator::add(const Eigen::Vector3d& p) {
-  if (!p.allFinite()) return;
+  add(p, 1.0);  // 1.0 * x == x: the same sums as unweighted
+}
+
+void PlaneFitAccumulator::add(const Eigen::Vector3d& p, double weight) {
+  if (!p.allFinite() || !std::isfinite(weight) || !(weight > 0.0)) return;
   if (n_ == 0) ref_ = p;
   const double x = p.x() - ref_.x(), y = p.y() - ref_.y(), z = p.z() - ref_.z();
   ++n_;
-  sx_ += x;
-  sy_ += y;
-  sz_ += z;
-  sxx_ += x * x;
-  sxy_ += x * y;
-  syy_ += y * y;
-  sxz_ += x * z;
-  syz_ += y * z;
-  szz_ += z * z;
+  w_ += weight;
+  sx_ += weight * x;
+  sy_ += weight * y;
+  sz_ += weight * z;
+  sxx_ += weight * x * x;
+  sxy_ += weight * x * y;
+  syy_ += weight * y * y;
+  sxz_ += weight * x * z;
+  syz_ += weight * y * z;
+  szz_ += weight * z * z;
 }
 
 GroundPlane PlaneFitAccumulator::fit(const PlaneFitConfig& config) const {
   GroundPlane plane;
-  plane.num_points = n_;
+  plane.num_points = static_cast<std::size_t>(std::llround(w_));
   if (n_ == 0) return plane;
-  const double n = static_cast<double>(n_);
+  const double n = w_;
   const double mx = sx_ / n, my = sy_ / n, mz = sz_ / n;
   plane.centroid = ref_ + Eigen::Vector3d(mx, my, mz);
   if (n_ < static_cast<std::size_t>(config.min_points)) return plane;
@@ -102,6 +107,16 @@ GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments&
   const int w = segments.segment_height[k];
   auto addLayer = [&](PlaneFitAccumulator* acc, int dw, const GroundPlane* gate, double tol) {
     for (const int* c = segments.cellsBegin(k); c != segments.cellsEnd(k); ++c) {
+      if (config_.observation_means) {
+        // PlaneFitConfig::observation_means: the voxel's mean point, weighted by its points.
+        const VoxelMoments m =
+            grid.moments(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w + dw});
+        if (!(m.weight > 0.0f)) continue;
+        const Eigen::Vector3d p(m.sx / m.weight, m.sy / m.weight, m.sz / m.weight);
+        if (gate != nullptr && !(std::abs(p.z() - gate->heightAt(p.x(), p.y())) <= tol)) continue;
+        acc->add(p, m.weight);
+        continue;
+      }
       const VoxelPointList list =
           grid.points(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w + dw});
       for (const VoxelPoint& p : list) {

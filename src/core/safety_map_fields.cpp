@@ -101,6 +101,11 @@ ParamFieldList<M> makeMapperFields() {
       .unit("m")
       .live(kStage)
       .doc("robot height above its base: the robot passes under anything higher (000 Sec. V-A).");
+  l.add("observation_means", &M::height_map, &HeightMapConfig::observation_means)
+      .doc(
+          "column heights are the means of every point their voxels received, not of the "
+          "voxels' capped closest-first point lists, which bias a floor by +-2 cm (ours; false = "
+          "000 Sec. IV's lists).");
   l.add("planning_radius", &M::segmentation, &GroundSegmentationConfig::planning_radius)
       .openClosed(0, 1000)
       .unit("m")
@@ -171,6 +176,11 @@ ParamFieldList<M> makeMapperFields() {
           "voxel layers above and below a segment whose points join its fit, so that a ramp's "
           "slope is not flattened (ours; 0 = 000 Sec. V-B; off: less robust on small noisy real "
           "patches).");
+  l.add("plane_observation_means", &M::plane_fit, &PlaneFitConfig::observation_means)
+      .doc(
+          "each voxel of a segment joins its plane as the mean of every point it received, "
+          "weighted by their number, not as its capped closest-first point list (ours; false = "
+          "000 Sec. IV-V-B's lists).");
 
   l.section("Labelling (000 Sec. VI, Alg. 2)");
   l.add("max_slope_deg", &M::labelling, &SafetyLabellingConfig::max_slope_deg)

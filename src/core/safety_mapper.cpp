@@ -111,6 +111,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.segmentation.segment_islands = false;      // 000 Alg. 1 grows from the robot's island only
   c.segmentation.footprint_radius = 0.0;       // 000 seeds on observed ground only
   c.segmentation.split_steps = false;          // 000 Alg. 1: a segment is one indexed height
+  c.height_map.observation_means = false;      // 000 Sec. IV: the voxels' point lists
   c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.floor_fragments = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.robot_fragment_passage = false;  // 000 Alg. 2 step 21: num_T on both sides
@@ -124,6 +125,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.measured_step_test = false;       // 000 Alg. 2 steps 15-17: planes only
   c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
   c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
+  c.plane_fit.observation_means = false;        // 000 Sec. V-B: the voxels' point lists
   c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window
   // The look-ahead must stay within the window; 0 centres it on the robot (000 Sec. IV).
   c.grid_look_ahead = 0.0;

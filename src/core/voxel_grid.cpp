@@ -127,6 +127,7 @@ VoxelGrid::VoxelGrid(const VoxelGridConfig& config) : config_(config) {
   lop_.assign(n, 0);
   stamp_.assign(n, 0);
   point_count_.assign(n, 0);
+  moments_.assign(n, VoxelMoments());
   point_storage_.resize(n * static_cast<std::size_t>(config_.point_list_capacity));
   pending_.assign(n, 0);
   touched_.assign(n, 0);
@@ -186,12 +187,14 @@ VoxelIndex VoxelGrid::windowMinFor(const Eigen::Vector3f& robot) const {
 void VoxelGrid::clearVoxel(std::size_t k) {
   lop_[k] = 0;
   point_count_[k] = 0;
+  moments_[k] = VoxelMoments();
   stamp_[k] = 0;
 }
 
 void VoxelGrid::clear() {
   std::fill(lop_.begin(), lop_.end(), 0);
   std::fill(point_count_.begin(), point_count_.end(), 0);
+  std::fill(moments_.begin(), moments_.end(), VoxelMoments());
   std::fill(stamp_.begin(), stamp_.end(), 0);
   for (OutsideEntry& e : outside_seen_)
     e.stamp = 0;
@@ -284,6 +287,19 @@ void VoxelGrid::addIncrement(std::size_t k, int amount) {
 }
 
 void VoxelGrid::insertPoint(std::size_t k, const Eigen::Vector3f& p, float range) {
+  // Every point joins the voxel's moments (VoxelMoments), the list or not.
+  VoxelMoments& m = moments_[k];
+  if (m.weight >= kMomentWindow) {
+    constexpr float kFade = (kMomentWindow - 1.0f) / kMomentWindow;
+    m.sx *= kFade;
+    m.sy *= kFade;
+    m.sz *= kFade;
+    m.weight *= kFade;
+  }
+  m.sx += p.x();
+  m.sy += p.y();
+  m.sz += p.z();
+  m.weight += 1.0f;
   // Lists are ordered by camera range and pruned from the far end: points seen from closer are
   // more accurate (000, Sec. IV).
   const std::size_t cap = static_cast<std::size_t>(config_.point_list_capacity);
@@ -565,6 +581,10 @@ VoxelPointList VoxelGrid::points(const VoxelIndex& i) const {
   list.data = point_storage_.data() + k * static_cast<std::size_t>(config_.point_list_capacity);
   list.size = point_count_[k];
   return list;
+}
+
+VoxelMoments VoxelGrid::moments(const VoxelIndex& i) const {
+  return contains(i) ? moments_[linear(i)] : VoxelMoments();
 }
 
 bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const {

@@ -173,6 +173,50 @@ TEST(HeightMap, GroundHeightTakesTheTopTwoVoxelsPoints) {
   EXPECT_TRUE(std::isnan(hm.groundHeightAtIndex(hm.index(5, 5))));
 }
 
+TEST(HeightMap, ObservationMeansWeighEveryPointOnce) {
+  // A level floor at z = 0 in voxel w = 0 seen 40 times; the nearer a point along its ray, the
+  // higher (stereo noise in front of the surface), and 8 points of its lower noise tail fell into
+  // the voxel below. The 8-point lists keep the nearest (highest) points of the top voxel and
+  // weigh the 8 tail points as much as them; the moments weigh every point once.
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> one(1);
+  double sum = 0.0;
+  int n = 0;
+  for (int f = 0; f < 40; ++f) {
+    const float z = 0.02f - 0.001f * f;  // -0.019 .. 0.02, mean 0.0005
+    const Eigen::Isometry3f T(Eigen::Translation3f(0.1f, 0.1f, 1.0f + 0.05f * f));
+    one[0] = Eigen::Vector3f(0.1f, 0.1f, z) - T.translation();
+    g.integrate(one, T);
+    sum += z;
+    ++n;
+  }
+  for (int f = 0; f < 8; ++f) {
+    const Eigen::Isometry3f T(Eigen::Translation3f(0.1f, 0.1f, 2.0f));
+    one[0] = Eigen::Vector3f(0.1f, 0.1f, -0.07f) - T.translation();
+    g.integrate(one, T);
+    sum += -0.07f;
+    ++n;
+  }
+  occupy(&g, 1, 1, 0);
+  g.setLogOdds({1, 1, 1}, 0);  // the fore neighbours' increments (incr_L) of 40 frames
+  HeightMapConfig lists;
+  lists.observation_means = false;
+  HeightMap hm_lists(lists), hm;
+  ASSERT_TRUE(hm.config().observation_means);  // the default
+  ASSERT_TRUE(hm_lists.build(g, 0.0f));
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  const int c = hm.index(1, 1);
+  ASSERT_EQ(hm.atIndex(c), 0);
+  // Lists: the 8 highest floor points (mean 0.0165) and the 8 tail points, half and half.
+  EXPECT_NEAR(hm_lists.surfaceHeightAtIndex(c), 0.0165f, 1e-4f);
+  EXPECT_NEAR(hm_lists.groundHeightAtIndex(c), 0.5f * (0.0165f - 0.07f), 1e-4f);
+  // Moments: the floor's 40 points and the 8 tail points, each once.
+  EXPECT_NEAR(hm.surfaceHeightAtIndex(c), 0.0005f, 1e-4f);
+  EXPECT_NEAR(hm.groundHeightAtIndex(c), sum / n, 1e-4f);
+  EXPECT_LT(std::abs(hm.groundHeightAtIndex(c)), 0.015f);
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

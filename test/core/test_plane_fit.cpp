@@ -201,7 +201,9 @@ TEST_F(PlaneFitterGrid, UsesOnlyThePointsAtTheSegmentsIndexedHeight) {
   GroundSegments s;
   ASSERT_TRUE(seg.segment(hm_, VoxelIndex{10, 0, 0}, 0.1, &s));
   ASSERT_EQ(s.numSegments(), 1);
-  PlaneFitter fitter;
+  PlaneFitConfig lists;
+  lists.observation_means = false;  // 000 Sec. V-B: the voxels' point lists
+  PlaneFitter fitter(lists);
   const GroundPlane p = fitter.fitSegment(*grid_, s, 0);
   ASSERT_TRUE(p.valid);
   EXPECT_NEAR(p.c, 0.0, 1e-5);
@@ -210,6 +212,13 @@ TEST_F(PlaneFitterGrid, UsesOnlyThePointsAtTheSegmentsIndexedHeight) {
   // each voxel kept at most point_list_capacity of the 25 that fell into it.
   EXPECT_GT(p.num_points, 8u * 8u * 4u);
   EXPECT_LE(p.num_points, 9u * 8u * 8u);
+  // With the voxels' moments (the default) every point in the columns counts: 38 of the 40 rows
+  // (y 0.361 and 0.381 lie in row v = 4, outside the segment) of 40 points.
+  const GroundPlane m = PlaneFitter().fitSegment(*grid_, s, 0);
+  ASSERT_TRUE(m.valid);
+  EXPECT_NEAR(m.c, 0.0, 1e-5);
+  EXPECT_NEAR(m.slope_deg, 0.0, 1e-3);
+  EXPECT_EQ(m.num_points, 38u * 40u);
 
   // The same columns at the upper height give the upper points.
   for (auto& h : s.segment_height)
@@ -265,9 +274,11 @@ TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
   ASSERT_TRUE(GroundSegmentation(sc).segment(hm, VoxelIndex{-10, 0, 0}, 0.1, &s));
   ASSERT_EQ(s.numSegments(), 1);
   PlaneFitConfig band_only;
+  band_only.observation_means = false;  // the lists, as in 000 Sec. V-B
   band_only.vertical_margin = 0;
   const GroundPlane p0 = PlaneFitter(band_only).fitSegment(grid, s, 0);
   PlaneFitConfig margin;
+  margin.observation_means = false;
   margin.vertical_margin = 1;
   const GroundPlane p1 = PlaneFitter(margin).fitSegment(grid, s, 0);
   ASSERT_TRUE(p0.valid);
@@ -275,6 +286,73 @@ TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
   EXPECT_GT(std::abs(p0.slope_deg - 6.0), 1.0);  // flattened
   EXPECT_LT(std::abs(p1.slope_deg - 6.0), 0.7);
   EXPECT_GT(p1.num_points, p0.num_points);
+}
+
+// A level floor seen from cameras at different heights: the nearer a point along its ray, the
+// higher (stereo noise in front of the surface). Each voxel's list keeps its 8 nearest points,
+// so a plane on the lists stands above the floor; on the voxels' moments every point counts.
+TEST(PlaneFitter, ObservationMeansFitEveryPointNotTheNearest) {
+  VoxelGridConfig gc;
+  gc.size_x = gc.size_y = 4.0;
+  VoxelGrid grid(gc);
+  grid.recenter(Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> one(1);
+  double sum = 0.0;
+  int n = 0;
+  for (int f = 0; f < 40; ++f) {
+    const float z = 0.02f - 0.001f * f;  // mean 0.0005 m
+    for (int u = 0; u < 10; ++u)
+      for (int v = -2; v <= 2; ++v) {
+        const float x = 0.1f * u + 0.002f * (f % 7) - 0.006f, y = 0.1f * v + 0.002f * (f % 5);
+        const Eigen::Isometry3f T(Eigen::Translation3f(x, y, 1.0f + 0.05f * f));
+        one[0] = Eigen::Vector3f(x, y, z) - T.translation();
+        grid.integrate(one, T);
+        sum += z;
+        ++n;
+      }
+  }
+  HeightMap hm;
+  hm.reset(-20, -20, 40, 40);
+  for (int u = 0; u < 10; ++u)
+    for (int v = -2; v <= 2; ++v)
+      hm.set(u, v, 0);
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation().segment(hm, VoxelIndex{0, 0, 0}, 0.1, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  PlaneFitConfig lists;
+  lists.observation_means = false;
+  const GroundPlane pl = PlaneFitter(lists).fitSegment(grid, s, 0);
+  const GroundPlane pm = PlaneFitter().fitSegment(grid, s, 0);
+  ASSERT_TRUE(pl.valid);
+  ASSERT_TRUE(pm.valid);
+  EXPECT_NEAR(pl.heightAt(0.5, 0.0), 0.0165, 1e-3);  // the 8 nearest: 0.02 .. 0.013
+  EXPECT_NEAR(pm.heightAt(0.5, 0.0), sum / n, 1e-3);
+  EXPECT_NEAR(pm.slope_deg, 0.0, 0.1);
+  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(n));
+  EXPECT_EQ(pl.num_points, 8u * 50u);
+}
+
+TEST(PlaneFit, AWeightedPointIsThatManyEqualPoints) {
+  const std::vector<Eigen::Vector3d> pts = planePoints(0.1, -0.05, 0.3, 2.0, 1.0, 5, 0.1, 0.02);
+  PlaneFitAccumulator repeated, weighted;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const int w = 1 + static_cast<int>(i % 4);
+    for (int k = 0; k < w; ++k)
+      repeated.add(pts[i]);
+    weighted.add(pts[i], static_cast<double>(w));
+  }
+  weighted.add(Eigen::Vector3d(0, 0, 9), 0.0);  // ignored
+  weighted.add(Eigen::Vector3d(0, 0, 9), -1.0);
+  weighted.add(Eigen::Vector3d(0, 0, 9), std::numeric_limits<double>::quiet_NaN());
+  const GroundPlane a = repeated.fit(PlaneFitConfig()), b = weighted.fit(PlaneFitConfig());
+  ASSERT_TRUE(a.valid);
+  ASSERT_TRUE(b.valid);
+  EXPECT_NEAR(a.a, b.a, 1e-9);
+  EXPECT_NEAR(a.b, b.b, 1e-9);
+  EXPECT_NEAR(a.c, b.c, 1e-9);
+  EXPECT_NEAR(a.residual_rms, b.residual_rms, 1e-9);
+  EXPECT_EQ(a.num_points, b.num_points);
+  EXPECT_EQ(weighted.count(), pts.size());
 }
 
 TEST_F(PlaneFitterGrid, SegmentWithoutPointsIsInvalid) {

@@ -568,6 +568,44 @@ TEST(VoxelGridPoints, FullCapacityKeepsTheClosestSorted) {
     EXPECT_FLOAT_EQ(list.data[i].range, seen[i]) << i;
 }
 
+TEST(VoxelGridPoints, MomentsCountEveryPointWhileTheListKeepsTheClosest) {
+  // One point per frame into the voxel at x = 1, from cameras at varying distance: the list keeps
+  // the 8 nearest, the moments hold all of them (HeightMapConfig::observation_means).
+  VoxelGridConfig c;
+  c.size_x = c.size_y = 4.0;
+  c.size_z = 1.0;
+  c.z_below_robot = 0.5;
+  VoxelGrid g(c);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> range(0.5f, 1.9f), z(-0.04f, 0.04f);
+  double sum_z = 0.0, sum_x = 0.0;
+  const int frames = 40;
+  for (int f = 0; f < frames; ++f) {
+    const float r = range(rng), pz = z(rng), px = 1.0f + 0.5f * z(rng);
+    sum_z += pz;
+    sum_x += px;
+    g.integrate({Vec(r, 0.0f, pz)}, cameraAt(Vec(px - r, 0.0f, 0.0f)));
+  }
+  const VoxelIndex i = idx(10, 0, 0);
+  ASSERT_EQ(g.points(i).size, 8u);
+  const VoxelMoments m = g.moments(i);
+  EXPECT_FLOAT_EQ(m.weight, static_cast<float>(frames));
+  EXPECT_NEAR(m.sz / m.weight, sum_z / frames, 1e-6);
+  EXPECT_NEAR(m.sx / m.weight, sum_x / frames, 1e-6);
+  EXPECT_NEAR(m.sy / m.weight, 0.0, 1e-6);
+  EXPECT_EQ(g.moments(idx(11, 0, 0)).weight, 0.0f);    // a voxel without points
+  EXPECT_EQ(g.moments(idx(1000, 0, 0)).weight, 0.0f);  // outside the window
+  // Past kMomentWindow points the old ones fade: a surface that moved is followed.
+  for (int f = 0; f < 300; ++f)
+    g.integrate({Vec(1.0f, 0.0f, 0.03f)}, cameraAt(Vec(0.0f, 0.0f, 0.0f)));
+  const VoxelMoments later = g.moments(i);
+  EXPECT_LE(later.weight, VoxelGrid::kMomentWindow + 1e-3f);
+  EXPECT_GT(later.weight, VoxelGrid::kMomentWindow - 1.0f);
+  EXPECT_NEAR(later.sz / later.weight, 0.03, 2e-3);
+  g.clear();
+  EXPECT_EQ(g.moments(i).weight, 0.0f);
+}
+
 TEST(VoxelGridPoints, RangeIsDistanceToCameraWithRotation) {
   VoxelGrid g;
   Eigen::Isometry3f T = Eigen::Isometry3f::Identity();

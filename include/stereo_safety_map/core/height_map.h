@@ -18,6 +18,17 @@ struct HeightMapConfig {
   /// Robot height above its base [m]. Occupied voxels whose centre is at or above
   /// base z + robot_height are ignored: the robot can travel under them (000, Sec. V-A).
   double robot_height = 1.5;
+  /// Column heights from every point (ours; false = the point lists of 000 Sec. IV). The
+  /// surface and ground heights below are means of points. A voxel's list keeps the
+  /// point_list_capacity points nearest to the camera, and a list weighs the same whether its
+  /// voxel saw 8 points or 800. Both bias a floor's height: along a ray the nearest points are
+  /// the ones in front of the surface (a level floor's top voxel reads +2 cm), and where a floor
+  /// straddles a voxel boundary the few points of its noise tail in the other voxel fill that
+  /// voxel's list and count as much as the floor's own (a level floor seen for 90 frames reads
+  /// 2 cm low, one seen for 10 reads 2 cm high: perfect-pose dev seed 5, a 6.1 cm step measured
+  /// 3.6 cm). With this on the heights are the means of the voxels' running moments
+  /// (VoxelGrid::moments): every point counts once.
+  bool observation_means = true;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -70,15 +81,15 @@ class HeightMap {
     return inside(u, v) ? w_low_[index(u, v)] : kNoHeight;
   }
   std::int32_t lowestAtIndex(int cell) const { return w_low_[cell]; }
-  /// Measured height of the surface in the column [m]: the mean z of the point list of its
-  /// highest occupied voxel (000 Sec. IV), NaN when the column has no height or no points. Unlike
-  /// the indexed height it is not quantised to l_v, so a ramp's columns differ by its slope
-  /// times their spacing, not by whole voxels.
+  /// Measured height of the surface in the column [m]: the mean z of the points of its highest
+  /// occupied voxel (its list, 000 Sec. IV, or its moments, HeightMapConfig::observation_means),
+  /// NaN when the column has no height or no points. Unlike the indexed height it is not quantised
+  /// to l_v, so a ramp's columns differ by its slope times their spacing, not by whole voxels.
   float surfaceHeightAtIndex(int cell) const { return surface_z_[cell]; }
   /// Ground height of the column [m] (ours, for GroundSegmentationConfig::split_steps): the mean
-  /// z of the point lists of its highest occupied voxel and of the voxel just below it, NaN when
-  /// the column has no height or none of them has points. A surface that lies in the lower part
-  /// of a voxel leaves only the upper tail of its stereo noise in the voxel above: the top
+  /// z of the points (as above) of its highest occupied voxel and of the voxel just below it, NaN
+  /// when the column has no height or none of them has points. A surface that lies in the lower
+  /// part of a voxel leaves only the upper tail of its stereo noise in the voxel above: the top
   /// voxel's mean (surfaceHeightAtIndex) then stands above the surface, by up to about half a
   /// voxel, and a sunken floor 6 cm below the robot's reads 3-4 cm below it. The two voxels
   /// together hold the whole spread of the noise.

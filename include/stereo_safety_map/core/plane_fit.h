@@ -40,6 +40,13 @@ struct PlaneFitConfig {
   /// out 16 deg with it (Non-ground) where the band alone gives a level floor, and on the
   /// datasets it changed the error rates by less than 0.1 % (docs/evaluation.md).
   int vertical_margin = 0;
+  /// Fit to every point (ours; false = the point lists of 000 Sec. IV): each voxel of the
+  /// segment contributes the mean of its running moments (VoxelGrid::moments), weighted by the
+  /// points it received, instead of its list of the point_list_capacity points nearest to the
+  /// camera. A list holds the points in front of the surface along their rays and weighs the
+  /// same for 8 observations as for 800, so two segments' planes can differ by centimetres at
+  /// a step whose sides sit differently in their voxels (HeightMapConfig::observation_means).
+  bool observation_means = true;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -52,6 +59,10 @@ class PlaneFitAccumulator {
   void clear();
   void add(const Eigen::Vector3d& p);
   void add(const Eigen::Vector3f& p) { add(Eigen::Vector3d(p.cast<double>())); }
+  /// A point that stands for `weight` points (the mean of a voxel's moments, VoxelMoments):
+  /// weighted least squares. Counts once towards min_points; num_points is the total weight.
+  /// Non-finite points and weights <= 0 are ignored.
+  void add(const Eigen::Vector3d& p, double weight);
   std::size_t count() const { return n_; }
   /// The least-squares plane; `valid` is false for fewer than config.min_points points or
   /// degenerate (collinear in xy) geometry, and then only num_points and centroid are filled.
@@ -59,6 +70,7 @@ class PlaneFitAccumulator {
 
  private:
   std::size_t n_ = 0;
+  double w_ = 0;                                   // total weight (n_ when unweighted)
   Eigen::Vector3d ref_ = Eigen::Vector3d::Zero();  // first point: shifts the data near zero
   double sx_ = 0, sy_ = 0, sz_ = 0;                // sums of shifted coordinates
   double sxx_ = 0, sxy_ = 0, syy_ = 0, sxz_ = 0, syz_ = 0, szz_ = 0;

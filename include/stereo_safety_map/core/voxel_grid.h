@@ -1,4 +1,5 @@
-// 3D log-odds occupancy grid with a fixed-capacity point list per voxel (paper 000, Sec. IV).
+// 3D log-odds occupancy grid with a fixed-capacity point list per voxel (paper 000, Sec. IV)
+// and the running moments of every point each voxel received (ours, VoxelMoments).
 //
 // ROS-free. The grid is robot-local and fixed-size: voxels are addressed by the global integer
 // indices of Eq. (1) (u, v, w) = (round(x / l_v), round(y / l_v), round(z / l_v)) and stored in a
@@ -68,6 +69,16 @@ struct IntegrationStats {
 struct VoxelPoint {
   Eigen::Vector3f position;  ///< fixed frame [m]
   float range;               ///< distance to the camera at observation [m]
+};
+
+/// Running moments of every point a voxel received (ours): the sums of x, y, z and their weight,
+/// one point per voxel per frame (000 Sec. IV), every one counted, not only the list's closest.
+/// Older points fade: once the weight reaches VoxelGrid::kMomentWindow, each new point first
+/// scales the sums by (N - 1) / N, an exponential mean over about the last N points, so a voxel
+/// whose surface moved follows it.
+struct VoxelMoments {
+  float sx = 0.0f, sy = 0.0f, sz = 0.0f;
+  float weight = 0.0f;
 };
 
 /// Read-only view of one voxel's point list, ordered by ascending range.
@@ -142,6 +153,14 @@ class VoxelGrid {
   bool isOccupied(const VoxelIndex& i) const;
   /// The voxel's point list (empty outside the window).
   VoxelPointList points(const VoxelIndex& i) const;
+  /// The running moments of every point the voxel received (zero weight outside the window or
+  /// when it has none). The point list keeps the point_list_capacity points nearest to the
+  /// camera: along each ray those are the ones in front of the surface, and a list holds as
+  /// many points after 8 observations as after 800; the moments hold them all (ours, for
+  /// HeightMapConfig::observation_means).
+  VoxelMoments moments(const VoxelIndex& i) const;
+  /// Points after which the moments fade (VoxelMoments).
+  static constexpr float kMomentWindow = 64.0f;
 
   /// Highest and lowest occupied voxel (LOP >= occ_t) of the column (u, v) among the indexed
   /// heights [w_lo, w_hi] (global indices, clipped to the window). Returns false and leaves the
@@ -199,6 +218,7 @@ class VoxelGrid {
   std::vector<std::int16_t> lop_;          // log-odds per voxel
   std::vector<std::uint32_t> stamp_;       // stamp of the frame in which the voxel got its point
   std::vector<std::uint8_t> point_count_;  // points in each voxel's list
+  std::vector<VoxelMoments> moments_;      // every point's moments, per voxel
   // capacity points per voxel, contiguous; default-initialised (slots past a list's count are
   // never read), so pages are only touched when points arrive
   std::vector<VoxelPoint, detail::DefaultInitAllocator<VoxelPoint>> point_storage_;
