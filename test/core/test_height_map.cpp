@@ -200,10 +200,10 @@ TEST(HeightMap, ObservationMeansWeighEveryPointOnce) {
   }
   occupy(&g, 1, 1, 0);
   g.setLogOdds({1, 1, 1}, 0);  // the fore neighbours' increments (incr_L) of 40 frames
-  HeightMapConfig lists;
-  lists.observation_means = false;
-  HeightMap hm_lists(lists), hm;
-  ASSERT_TRUE(hm.config().observation_means);  // the default
+  HeightMapConfig lists, means;
+  means.observation_means = true;
+  HeightMap hm_lists(lists), hm(means);
+  ASSERT_FALSE(lists.observation_means);  // the default: 000's lists
   ASSERT_TRUE(hm_lists.build(g, 0.0f));
   ASSERT_TRUE(hm.build(g, 0.0f));
   const int c = hm.index(1, 1);

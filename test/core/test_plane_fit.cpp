@@ -212,9 +212,11 @@ TEST_F(PlaneFitterGrid, UsesOnlyThePointsAtTheSegmentsIndexedHeight) {
   // each voxel kept at most point_list_capacity of the 25 that fell into it.
   EXPECT_GT(p.num_points, 8u * 8u * 4u);
   EXPECT_LE(p.num_points, 9u * 8u * 8u);
-  // With the voxels' moments (the default) every point in the columns counts: 38 of the 40 rows
+  // With the voxels' moments every point in the columns counts: 38 of the 40 rows
   // (y 0.361 and 0.381 lie in row v = 4, outside the segment) of 40 points.
-  const GroundPlane m = PlaneFitter().fitSegment(*grid_, s, 0);
+  PlaneFitConfig means;
+  means.observation_means = true;
+  const GroundPlane m = PlaneFitter(means).fitSegment(*grid_, s, 0);
   ASSERT_TRUE(m.valid);
   EXPECT_NEAR(m.c, 0.0, 1e-5);
   EXPECT_NEAR(m.slope_deg, 0.0, 1e-3);
@@ -322,7 +324,9 @@ TEST(PlaneFitter, ObservationMeansFitEveryPointNotTheNearest) {
   PlaneFitConfig lists;
   lists.observation_means = false;
   const GroundPlane pl = PlaneFitter(lists).fitSegment(grid, s, 0);
-  const GroundPlane pm = PlaneFitter().fitSegment(grid, s, 0);
+  PlaneFitConfig means;
+  means.observation_means = true;
+  const GroundPlane pm = PlaneFitter(means).fitSegment(grid, s, 0);
   ASSERT_TRUE(pl.valid);
   ASSERT_TRUE(pm.valid);
   EXPECT_NEAR(pl.heightAt(0.5, 0.0), 0.0165, 1e-3);  // the 8 nearest: 0.02 .. 0.013

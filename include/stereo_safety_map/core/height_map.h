@@ -27,8 +27,10 @@ struct HeightMapConfig {
   /// voxel's list and count as much as the floor's own (a level floor seen for 90 frames reads
   /// 2 cm low, one seen for 10 reads 2 cm high: perfect-pose dev seed 5, a 6.1 cm step measured
   /// 3.6 cm). With this on the heights are the means of the voxels' running moments
-  /// (VoxelGrid::moments): every point counts once.
-  bool observation_means = true;
+  /// (VoxelGrid::moments): every point counts once. Off by default: measured on the dev split
+  /// together with PlaneFitConfig::observation_means (docs/evaluation.md, "Heights from capped
+  /// point lists"), not alone enough to make it the default.
+  bool observation_means = false;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;

@@ -46,7 +46,10 @@ struct PlaneFitConfig {
   /// camera. A list holds the points in front of the surface along their rays and weighs the
   /// same for 8 observations as for 800, so two segments' planes can differ by centimetres at
   /// a step whose sides sit differently in their voxels (HeightMapConfig::observation_means).
-  bool observation_means = true;
+  /// Off by default: one mean per voxel has no spread across a segment one cell wide, so such a
+  /// strip gets no plane and turns Unknown (the closed-loop gate test's corridor stopped at one);
+  /// the fix (keep the list's xy spread, shift its z to the moments' mean) is not yet measured.
+  bool observation_means = false;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
