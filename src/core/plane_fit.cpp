@@ -107,18 +107,28 @@ GroundPlane PlaneFitter::fitSegment(const VoxelGrid& grid, const GroundSegments&
   const int w = segments.segment_height[k];
   auto addLayer = [&](PlaneFitAccumulator* acc, int dw, const GroundPlane* gate, double tol) {
     for (const int* c = segments.cellsBegin(k); c != segments.cellsEnd(k); ++c) {
-      if (config_.observation_means) {
-        // PlaneFitConfig::observation_means: the voxel's mean point, weighted by its points.
-        const VoxelMoments m =
-            grid.moments(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w + dw});
+      const VoxelIndex idx{segments.cellU(*c), segments.cellV(*c), w + dw};
+      const VoxelPointList list = grid.points(idx);
+      if (config_.observation_means && !list.empty()) {
+        // PlaneFitConfig::observation_means: the list's points keep the voxel's xy spread, their
+        // heights are moved by the difference between the mean of every point the voxel received
+        // (VoxelGrid::moments) and the list's own mean, and together they weigh as many points
+        // as the voxel received.
+        const VoxelMoments m = grid.moments(idx);
         if (!(m.weight > 0.0f)) continue;
-        const Eigen::Vector3d p(m.sx / m.weight, m.sy / m.weight, m.sz / m.weight);
-        if (gate != nullptr && !(std::abs(p.z() - gate->heightAt(p.x(), p.y())) <= tol)) continue;
-        acc->add(p, m.weight);
+        double list_z = 0.0;
+        for (const VoxelPoint& p : list)
+          list_z += p.position.z();
+        const double n = static_cast<double>(list.size);
+        const double dz = m.sz / m.weight - list_z / n;
+        const double weight = m.weight / n;
+        for (const VoxelPoint& p : list) {
+          const Eigen::Vector3d q(p.position.x(), p.position.y(), p.position.z() + dz);
+          if (gate != nullptr && !(std::abs(q.z() - gate->heightAt(q.x(), q.y())) <= tol)) continue;
+          acc->add(q, weight);
+        }
         continue;
       }
-      const VoxelPointList list =
-          grid.points(VoxelIndex{segments.cellU(*c), segments.cellV(*c), w + dw});
       for (const VoxelPoint& p : list) {
         if (gate != nullptr &&
             !(std::abs(p.position.z() - gate->heightAt(p.position.x(), p.position.y())) <= tol))

@@ -178,9 +178,9 @@ ParamFieldList<M> makeMapperFields() {
           "patches).");
   l.add("plane_observation_means", &M::plane_fit, &PlaneFitConfig::observation_means)
       .doc(
-          "each voxel of a segment joins its plane as the mean of every point it received, "
-          "weighted by their number, not as its capped closest-first point list (ours; false = "
-          "000 Sec. IV-V-B's lists).");
+          "each voxel's list points join its segment's plane moved in z to the mean of every "
+          "point the voxel received and weighted by their number (ours; false = 000 Sec. "
+          "IV-V-B's capped closest-first lists).");
 
   l.section("Labelling (000 Sec. VI, Alg. 2)");
   l.add("max_slope_deg", &M::labelling, &SafetyLabellingConfig::max_slope_deg)
@@ -313,6 +313,14 @@ ParamFieldList<M> makeMapperFields() {
       .unit("deg")
       .live(kStage)
       .doc("camera rotation below which a frame is stationary (ours).");
+  l.add("stationary_warmup_frames", &M::stationary_warmup_frames)
+      .closed(0, 100000)
+      .live(kStage)
+      .doc(
+          "stationary frames are integrated all the same until the grid holds this many frames "
+          "since it was (re)started, so that a chair switched on at rest sees its obstacles "
+          "(a voxel needs occ_t / incr_H = 10 hits) before it moves (ours; 0 = 000 Sec. IV, "
+          "every stationary frame skipped). 10 = occ_t / incr_H.");
   l.add("scroll_with_robot", &M::scroll_with_robot)
       .doc("keep the grid centred on the robot (000 Sec. IV allows either).");
   l.add("grid_look_ahead", &M::grid_look_ahead)

@@ -62,6 +62,9 @@ std::string SafetyMapperConfig::validate() const {
       stationary_rotation_deg > 180.0) {
     return "stationary_rotation_deg must be in [0, 180] deg";
   }
+  if (stationary_warmup_frames < 0 || stationary_warmup_frames > 100000) {
+    return "stationary_warmup_frames must be in [0, 100000]";
+  }
   // A window smaller than 2 R_max allows no look-ahead (but stays valid centred on the robot).
   const double max_look_ahead =
       std::max(0.0, 0.5 * std::min(grid.size_x, grid.size_y) - segmentation.planning_radius);
@@ -127,6 +130,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
   c.plane_fit.observation_means = false;        // 000 Sec. V-B: the voxels' point lists
   c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window
+  c.stationary_warmup_frames = 0;               // 000 Sec. IV: every stationary frame skipped
   // The look-ahead must stay within the window; 0 centres it on the robot (000 Sec. IV).
   c.grid_look_ahead = 0.0;
   return c;
@@ -292,6 +296,9 @@ void SafetyMapper::reset() {
 
 bool SafetyMapper::isStationary(const Eigen::Isometry3f& T_fixed_sensor) const {
   if (!config_.skip_stationary_frames || !has_last_pose_) return false;
+  // SafetyMapperConfig::stationary_warmup_frames: a grid started at rest fills first.
+  if (frames_integrated_ < static_cast<std::uint32_t>(config_.stationary_warmup_frames))
+    return false;
   const Eigen::Isometry3f delta = last_pose_.inverse() * T_fixed_sensor;
   const double dt = delta.translation().norm();
   const double da = Eigen::AngleAxisf(delta.linear()).angle();

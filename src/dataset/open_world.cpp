@@ -184,9 +184,11 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
           ok = p.processDisparity(processors[0]->disparity(), processors[0]->disparityCamera(),
                                   T_fixed_sensor, base, truth.t, &r, &why);
         }
-        if (ok && detectors[k]) {
+        if (detectors[k]) {
           // The obstacle-detection nodelet's work on the same disparity message: the range
           // image within [min_depth, max_depth], 003's detector with the reported pose (tf).
+          // It runs on every disparity, also on the frames the map skips (stationary), as the
+          // nodelet does: its cues wait in the processor for the next map.
           const StereoFrameProcessor& src =
               k == 0 || variants[k].own_disparity ? p : *processors[0];
           const StereoCameraModel& cam = src.disparityCamera();

@@ -281,7 +281,7 @@ void StereoRenderer::renderBand(int cam, int tile_row, std::uint64_t /*frame*/) 
   Ray ray;
   ray.origin = view.origin;
   for (int y = y0; y < y1; ++y) {
-    float* out = radiance_[cam].ptr<float>(y);
+    float* out = depth_only_ ? nullptr : radiance_[cam].ptr<float>(y);
     float* dep = aux ? depth_.ptr<float>(y) : nullptr;
     int* idp = aux ? ids_.ptr<int>(y) : nullptr;
     const Eigen::Vector3d row_dir = view.R.col(1) * ((y - cy) * inv_f) + view.R.col(2);
@@ -300,6 +300,12 @@ void StereoRenderer::renderBand(int cam, int tile_row, std::uint64_t /*frame*/) 
           hit.primitive = id;
           hit.face = face;
         }
+      }
+      if (depth_only_) {
+        dep[x] =
+            hit.primitive >= 0 ? static_cast<float>(hit.t) : std::numeric_limits<float>::infinity();
+        if (idp != nullptr) idp[x] = hit.primitive;
+        continue;
       }
       Eigen::Vector3f rad;
       if (hit.primitive >= 0) {
@@ -373,6 +379,23 @@ bool StereoRenderer::render(const Eigen::Isometry3d& T_world_left, std::uint64_t
       }
     }
   });
+  if (left_depth) depth_.copyTo(*left_depth);
+  if (left_ids) ids_.copyTo(*left_ids);
+  return true;
+}
+
+bool StereoRenderer::renderDepth(const Eigen::Isometry3d& T_world_left, cv::Mat* left_depth,
+                                 cv::Mat* left_ids) {
+  if (!T_world_left.matrix().allFinite()) return false;
+  views_[0].R = T_world_left.linear();
+  views_[0].origin = T_world_left.translation();
+  cullTiles(&views_[0]);
+  want_aux_ = true;
+  depth_only_ = true;
+  depth_.create(config_.height, config_.width, CV_32F);
+  ids_.create(config_.height, config_.width, CV_32S);
+  parallelFor(tiles_y_, config_.threads, [&](int job) { renderBand(0, job, 0); });
+  depth_only_ = false;
   if (left_depth) depth_.copyTo(*left_depth);
   if (left_ids) ids_.copyTo(*left_ids);
   return true;

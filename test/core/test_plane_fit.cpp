@@ -336,6 +336,48 @@ TEST(PlaneFitter, ObservationMeansFitEveryPointNotTheNearest) {
   EXPECT_EQ(pl.num_points, 8u * 50u);
 }
 
+TEST(PlaneFitter, ObservationMeansFitAStripOneCellWide) {
+  // A corridor of floor one cell wide (10 x 1 cells): one mean per voxel would have no spread
+  // across it and no plane; the lists' points keep their spread, moved to the voxels' means.
+  VoxelGridConfig gc;
+  gc.size_x = gc.size_y = 4.0;
+  VoxelGrid grid(gc);
+  grid.recenter(Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> one(1);
+  double sum = 0.0;
+  int n = 0;
+  for (int f = 0; f < 30; ++f) {
+    const float z = 0.03f - 0.001f * f;  // mean 0.0155 m; the 8 nearest the camera are higher
+    for (int u = 0; u < 10; ++u) {
+      // y in -+ +- pairs: the 8 nearest (f = 0..7) are as high on either side.
+      const float x = 0.1f * u + 0.003f * (f % 5) - 0.006f,
+                  y = (f % 4 == 0 || f % 4 == 3) ? -0.03f : 0.03f;
+      const Eigen::Isometry3f T(Eigen::Translation3f(x, y, 1.0f + 0.05f * f));
+      one[0] = Eigen::Vector3f(x, y, z) - T.translation();
+      grid.integrate(one, T);
+      sum += z;
+      ++n;
+    }
+  }
+  HeightMap hm;
+  hm.reset(-20, -20, 40, 40);
+  for (int u = 0; u < 10; ++u)
+    hm.set(u, 0, 0);
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation().segment(hm, VoxelIndex{0, 0, 0}, 0.1, &s));
+  ASSERT_EQ(s.numSegments(), 1);
+  PlaneFitConfig means;
+  means.observation_means = true;
+  const GroundPlane pm = PlaneFitter(means).fitSegment(grid, s, 0);
+  ASSERT_TRUE(pm.valid) << "a strip one cell wide has a plane";
+  EXPECT_NEAR(pm.heightAt(0.5, 0.0), sum / n, 2e-3);
+  EXPECT_NEAR(pm.slope_deg, 0.0, 1.0);
+  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(n));
+  const GroundPlane pl = PlaneFitter(PlaneFitConfig()).fitSegment(grid, s, 0);
+  ASSERT_TRUE(pl.valid);
+  EXPECT_GT(pl.heightAt(0.5, 0.0), pm.heightAt(0.5, 0.0) + 0.005);  // the lists sit in front
+}
+
 TEST(PlaneFit, AWeightedPointIsThatManyEqualPoints) {
   const std::vector<Eigen::Vector3d> pts = planePoints(0.1, -0.05, 0.3, 2.0, 1.0, 5, 0.1, 0.02);
   PlaneFitAccumulator repeated, weighted;

@@ -305,6 +305,32 @@ TEST(StereoRenderer, OcclusionKeepsTheNearestSurface) {
   EXPECT_EQ(ids.at<int>(5, 5), 0);
 }
 
+TEST(StereoRenderer, RenderDepthCastsWhatRenderCasts) {
+  ds::Scene s = wallScene(5.0, textured());
+  s.add(solid(ds::makeBox(Eigen::Vector3d(2.0, 0.1, 0.9), Eigen::Vector3d(0.4, 0.4, 0.4)), 0, false,
+              "box"));
+  ds::StereoRenderer r(s, smallHead(), 1);
+  const Eigen::Isometry3d T = lookAlongX(Eigen::Vector3d(0, 0, 1));
+  cv::Mat left, right, depth, ids, depth_only, ids_only;
+  ASSERT_TRUE(r.renderDepth(T, &depth_only, &ids_only));
+  r.render(T, 0, &left, &right, &depth, &ids);
+  ASSERT_EQ(depth_only.size(), depth.size());
+  EXPECT_EQ(cv::countNonZero(depth_only != depth), 0);  // the same values, +inf included
+  EXPECT_EQ(cv::countNonZero(ids_only != ids), 0);
+  EXPECT_GT(cv::countNonZero(ids_only == 1), 0);  // the box is seen
+  // A render after renderDepth still shades: its images are those of a fresh renderer.
+  ds::StereoRenderer fresh(s, smallHead(), 1);
+  cv::Mat l2, r2;
+  fresh.render(T, 0, &l2, &r2);
+  ASSERT_TRUE(r.renderDepth(T, &depth_only));
+  r.render(T, 0, &left, &right);
+  EXPECT_EQ(cv::countNonZero(left != l2), 0);
+  EXPECT_EQ(cv::countNonZero(right != r2), 0);
+  Eigen::Isometry3d bad = T;
+  bad(0, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(r.renderDepth(bad, &depth_only));
+}
+
 TEST(StereoRenderer, DeterministicWhateverTheThreadCount) {
   ds::StereoHeadConfig c1 = smallHead(2.0, 0.5), c2 = c1;
   c2.threads = 2;

@@ -523,7 +523,9 @@ TEST(SafetyMapper, StationaryFramesAreSkipped) {
   World w;
   std::mt19937 rng(3);
   const Frame f0 = render(w, Rig(), 0.0, 0.0, 0.0, 30.0, &rng);
-  SafetyMapper m;
+  SafetyMapperConfig paper;
+  paper.stationary_warmup_frames = 0;  // 000 Sec. IV: from the second frame on
+  SafetyMapper m(paper);
   FrameResult r;
   ASSERT_TRUE(m.integrateFrame(f0.points, f0.T, f0.robot, &r));  // the first frame always
   EXPECT_EQ(r.status, FrameStatus::kIntegrated);
@@ -550,7 +552,7 @@ TEST(SafetyMapper, StationaryFramesAreSkipped) {
   ASSERT_TRUE(m.integrateFrame(f0.points, moved(0.03, 1.5), f0.robot, &r));  // rotation alone
   EXPECT_EQ(m.framesIntegrated(), 3u);
 
-  SafetyMapperConfig c;
+  SafetyMapperConfig c = paper;
   c.skip_stationary_frames = false;
   SafetyMapper all(c);
   EXPECT_TRUE(all.integrateFrame(f0.points, f0.T, f0.robot, &r));
@@ -561,6 +563,50 @@ TEST(SafetyMapper, StationaryFramesAreSkipped) {
   m.reset();
   EXPECT_TRUE(m.safetyMap().labels.empty());
   EXPECT_TRUE(m.integrateFrame(f0.points, moved(0.03, 1.5), f0.robot, &r));
+}
+
+TEST(SafetyMapper, AChairSwitchedOnAtRestSeesItsObstaclesBeforeItMoves) {
+  // The camera stands 1.6 m in front of a box; sensor noise differs from frame to frame.
+  World w;
+  w.boxes.push_back({{1.6, -0.3, -0.1}, {2.0, 0.3, 0.5}});
+  std::mt19937 rng(5);
+  std::vector<Frame> at_rest;
+  for (int k = 0; k < 14; ++k)
+    at_rest.push_back(render(w, Rig(), 0.0, 0.0, 0.0, 30.0, &rng));
+  auto standStill = [&](const SafetyMapperConfig& c, int* integrated) {
+    auto m = std::make_unique<SafetyMapper>(c);
+    *integrated = 0;
+    for (const Frame& f : at_rest) {
+      FrameResult r;
+      if (m->integrateFrame(f.points, f.T, f.robot, &r)) ++*integrated;
+    }
+    return m;
+  };
+  SafetyMapperConfig ours;
+  ASSERT_EQ(ours.stationary_warmup_frames, 10);  // occ_t / incr_H
+  int n = 0;
+  const auto m = standStill(ours, &n);
+  EXPECT_EQ(n, 10);  // the warm-up, then 000's skipping
+  const auto box = cellsIn(m->safetyMap(), 1.7, 1.9, -0.2, 0.2);  // its front and top
+  ASSERT_FALSE(box.empty());
+  EXPECT_EQ(countLabel(m->safetyMap(), box, L::kNonGround), static_cast<int>(box.size()))
+      << ascii(m->safetyMap());
+  EXPECT_EQ(labelAt(m->safetyMap(), 1.0, 0.0), L::kLevel) << ascii(m->safetyMap());
+
+  // 000 Sec. IV: the first frame alone, on which no voxel reaches occ_t.
+  EXPECT_EQ(paperFaithful(ours).stationary_warmup_frames, 0);
+  SafetyMapperConfig skip_all = ours;
+  skip_all.stationary_warmup_frames = 0;
+  const auto p = standStill(skip_all, &n);
+  EXPECT_EQ(n, 1);
+  EXPECT_EQ(countLabel(p->safetyMap(), box, L::kNonGround), 0) << ascii(p->safetyMap());
+
+  // A reset starts the warm-up again.
+  m->reset();
+  FrameResult r;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(m->integrateFrame(at_rest[k].points, at_rest[k].T, at_rest[k].robot, &r));
+  }
 }
 
 TEST(SafetyMapper, BadInputLeavesTheMapUncorrupted) {

@@ -100,6 +100,7 @@ TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationar
   StereoFrameProcessorConfig c;
   c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
   c.mapper.skip_stationary_frames = true;
+  c.mapper.stationary_warmup_frames = 0;  // 000 Sec. IV (the warm-up: test_safety_mapper)
   StereoFrameProcessor p(c);
   const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
   StereoFrameResult r;

@@ -325,12 +325,28 @@ void expectFloorAndBox(const std::string& ns) {
       EXPECT_EQ(test_util::costAt(*grid.get(), x, y), 0) << "floor at " << x << ", " << y;
     }
   }
+  // The box's top is a strip about ten rows high in the image: near its far edge (x = 2.45)
+  // stereo_image_proc's 15x15 windows reach the floor behind it, and a cell there may hold too
+  // few points to be judged. It must never read safe; the rest of the box must be Non-ground.
   for (double x : {2.15, 2.3, 2.45}) {
     for (double y : {-0.15, 0.0, 0.15}) {
-      EXPECT_EQ(label(x, y), SafetyMapMsg::NON_GROUND) << "box at " << x << ", " << y;
-      EXPECT_EQ(test_util::costAt(*grid.get(), x, y), 100) << "box at " << x << ", " << y;
+      const int l = label(x, y);
+      const int cost = test_util::costAt(*grid.get(), x, y);
+      if (x < 2.4) {
+        EXPECT_EQ(l, SafetyMapMsg::NON_GROUND) << "box at " << x << ", " << y;
+        EXPECT_EQ(cost, 100) << "box at " << x << ", " << y;
+      } else {
+        EXPECT_TRUE(l == SafetyMapMsg::NON_GROUND || l == SafetyMapMsg::UNKNOWN)
+            << "box at " << x << ", " << y << ": label " << l;
+        EXPECT_TRUE(cost == 100 || cost == -1) << "box at " << x << ", " << y << ": cost " << cost;
+      }
     }
   }
+  int box_non_ground = 0;
+  for (double x : {2.15, 2.3, 2.45})
+    for (double y : {-0.15, 0.0, 0.15})
+      box_non_ground += label(x, y) == SafetyMapMsg::NON_GROUND;
+  EXPECT_GE(box_non_ground, 8) << "of the box's 9 checked cells";
   ASSERT_GE(m->robot_segment, 0);
   ASSERT_LT(m->robot_segment, static_cast<int>(m->segments.size()));
   const auto& floor = m->segments[m->robot_segment];

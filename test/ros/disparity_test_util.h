@@ -47,8 +47,8 @@ inline const StereoFrame& sceneFrame() {
     std_msgs::Header h;
     h.frame_id = stereo_scene::kCameraFrame;
     StereoFrame f;
-    f.left = stereo_scene::imageMsg(stereo_scene::renderImage(false), h);
-    f.right = stereo_scene::imageMsg(stereo_scene::renderImage(true), h);
+    f.left = stereo_scene::imageMsg(false, h);
+    f.right = stereo_scene::imageMsg(true, h);
     f.left_info = stereo_scene::cameraInfo(false, h);
     f.right_info = stereo_scene::cameraInfo(true, h);
     return f;

@@ -1,11 +1,11 @@
 // The camera of the rostests' small known scenes (stereo_scene.h: images; synthetic_scene.h: the
-// exact DisparityImage / PointCloud2): 320x240, f = 250 px, baseline 0.12 m, pitched down 30 deg
-// and looking along +x from `height` above the robot's base; its model, CameraInfo (conversions.h'
-// toCameraInfo), tf and the ray through a pixel, hit with Scene::intersect (the renderer's).
+// exact DisparityImage / PointCloud2): the datasets' stereo head (dataset/renderer.h) at 320x240,
+// f = 250 px, baseline 0.12 m, on the robot's axis, pitched down 30 deg and looking along +x from
+// `height` above the robot's base; its tf. Everything it sees is made by dataset::StereoRenderer.
 #pragma once
 
 #include "stereo_safety_map/core/stereo_camera_model.h"
-#include "stereo_safety_map/dataset/scene.h"
+#include "stereo_safety_map/dataset/renderer.h"
 #include "stereo_safety_map/ros/conversions.h"
 
 #include <geometry_msgs/TransformStamped.h>
@@ -15,7 +15,6 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
-#include <limits>
 #include <string>
 
 namespace scene_camera {
@@ -23,22 +22,26 @@ namespace scene_camera {
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
 constexpr double kF = 250.0;
-constexpr double kCx = 160.0;
-constexpr double kCy = 120.0;
+constexpr double kCx = 0.5 * (kWidth - 1);  // the renderer's principal point
+constexpr double kCy = 0.5 * (kHeight - 1);
 constexpr double kBaseline = 0.12;
 constexpr double kPitchDeg = 30.0;
 constexpr char kCameraFrame[] = "stereo_left_optical";
 
-/// base_link -> left optical frame (x right, y down, z forward), pitched down, `height` above.
-inline Eigen::Isometry3d baseToCamera(double height) {
-  Eigen::Matrix3d level;  // optical axes in base_link: x -> -y, y -> -z, z -> +x
-  level << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  const Eigen::Matrix3d pitch =
-      Eigen::AngleAxisd(kPitchDeg * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = pitch * level;
-  T.translation() = Eigen::Vector3d(0.0, 0.0, height);
-  return T;
+/// The head: the field of view that gives f = kF at kWidth, the left optical centre on the
+/// robot's axis `height` above its base; hits beyond `max_depth` are background.
+inline stereo_safety_map::dataset::StereoHeadConfig head(double height, double max_depth) {
+  stereo_safety_map::dataset::StereoHeadConfig c;
+  c.width = kWidth;
+  c.height = kHeight;
+  c.hfov_deg = 2.0 * std::atan(0.5 * kWidth / kF) * 180.0 / M_PI;
+  c.baseline = kBaseline;
+  c.mount_x = 0.0;
+  c.mount_y = 0.0;
+  c.mount_z = height;
+  c.pitch_deg = kPitchDeg;
+  c.max_depth = max_depth;
+  return c;
 }
 
 inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
@@ -47,40 +50,6 @@ inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const s
   t.header.frame_id = parent;
   t.child_frame_id = child;
   return t;
-}
-
-inline stereo_safety_map::StereoCameraModel cameraModel() {
-  stereo_safety_map::StereoCameraModel m;
-  m.fx = m.fy = kF;
-  m.cx = m.cx_right = kCx;
-  m.cy = kCy;
-  m.baseline = kBaseline;
-  m.width = kWidth;
-  m.height = kHeight;
-  return m;
-}
-
-inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
-}
-
-/// Direction of the ray through pixel (u, v) of a camera whose rotation (camera -> world) is
-/// `R`; its camera z is 1, so that the ray parameter is the depth.
-inline Eigen::Vector3d rayDirection(const Eigen::Matrix3d& R, double u, double v) {
-  return R * Eigen::Vector3d((u - kCx) / kF, (v - kCy) / kF, 1.0);
-}
-
-/// Depth (ray parameter) of the first hit of the ray from `origin` along `dir` with `scene`
-/// within max_depth (Scene::intersect, the renderer's); infinity when nothing is hit.
-inline double castRay(const stereo_safety_map::dataset::Scene& scene, const Eigen::Vector3d& origin,
-                      const Eigen::Vector3d& dir,
-                      double max_depth = std::numeric_limits<double>::infinity()) {
-  stereo_safety_map::dataset::Ray ray;
-  ray.origin = origin;
-  ray.dir = dir;
-  stereo_safety_map::dataset::Hit hit;
-  return scene.intersect(ray, 0.0, max_depth, &hit) ? hit.t
-                                                    : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace scene_camera

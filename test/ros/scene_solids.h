@@ -1,5 +1,5 @@
 // Solids of the rostests' small known scenes (stereo_scene.h, synthetic_scene.h) in the dataset's
-// types (dataset/scene.h), hit with Scene::intersect like the renderer's scenes.
+// types (dataset/scene.h), for dataset::StereoRenderer like every rendered dataset's scene.
 #pragma once
 
 #include "stereo_safety_map/dataset/scene.h"
@@ -35,6 +35,7 @@ inline stereo_safety_map::dataset::Scene floorWithBox(const Eigen::Vector2d& flo
                                                       const Eigen::Vector3d& box_hi) {
   namespace ds = stereo_safety_map::dataset;
   ds::Scene sc;
+  sc.addMaterial("default", ds::Material());  // index 0, every solid's until a scene sets its own
   ds::Primitive floor = alignedBox(Eigen::Vector3d(floor_lo.x(), floor_lo.y(), -1.0),
                                    Eigen::Vector3d(floor_hi.x(), floor_hi.y(), 0.0));
   floor.name = "floor";

@@ -40,15 +40,16 @@ struct PlaneFitConfig {
   /// out 16 deg with it (Non-ground) where the band alone gives a level floor, and on the
   /// datasets it changed the error rates by less than 0.1 % (docs/evaluation.md).
   int vertical_margin = 0;
-  /// Fit to every point (ours; false = the point lists of 000 Sec. IV): each voxel of the
-  /// segment contributes the mean of its running moments (VoxelGrid::moments), weighted by the
-  /// points it received, instead of its list of the point_list_capacity points nearest to the
-  /// camera. A list holds the points in front of the surface along their rays and weighs the
-  /// same for 8 observations as for 800, so two segments' planes can differ by centimetres at
-  /// a step whose sides sit differently in their voxels (HeightMapConfig::observation_means).
-  /// Off by default: one mean per voxel has no spread across a segment one cell wide, so such a
-  /// strip gets no plane and turns Unknown (the closed-loop gate test's corridor stopped at one);
-  /// the fix (keep the list's xy spread, shift its z to the moments' mean) is not yet measured.
+  /// Fit to every point (ours; false = the point lists of 000 Sec. IV). A list holds the
+  /// point_list_capacity points nearest to the camera, i.e. those in front of the surface along
+  /// their rays, and weighs the same for 8 observations as for 800, so two segments' planes can
+  /// differ by centimetres at a step whose sides sit differently in their voxels
+  /// (HeightMapConfig::observation_means). With this switch each voxel's list points keep their
+  /// xy spread, are moved in z by the difference between the mean of every point the voxel
+  /// received (VoxelGrid::moments) and the list's mean, and together weigh that many points.
+  /// (The first version, one mean point per voxel, had no spread across a segment one cell wide:
+  /// such a strip got no plane and turned Unknown.) Off by default: on the dev split it moved
+  /// FN / FP by less than 0.1 % alone (docs/evaluation.md, "Heights from capped point lists").
   bool observation_means = false;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.

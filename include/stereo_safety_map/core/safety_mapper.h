@@ -42,6 +42,14 @@ struct SafetyMapperConfig {
   /// (with 2 cm, 0.3 m/s at 15 Hz skipped every third or fourth frame of a drive).
   double stationary_translation = 0.01;
   double stationary_rotation_deg = 1.0;  ///< [deg]
+  /// Stationary frames are integrated all the same until the grid has integrated this many
+  /// frames since it was (re)started (ours; 0 = 000 Sec. IV, every stationary frame skipped).
+  /// A chair that is switched on at rest otherwise holds only its first frame's evidence, on
+  /// which no voxel reaches occ_t (a voxel needs occ_t / incr_H = 10 hits, 000 Sec. IV), and
+  /// every obstacle in view stays Unknown until the chair has driven ten frames. 10 = occ_t /
+  /// incr_H: a voxel seen in every frame from rest reaches occ_t. Once the grid holds that many
+  /// frames, a stationary camera's repeated mismatches are kept out of it as 000 intends.
+  int stationary_warmup_frames = 10;
 
   /// Keep the grid centred on the robot (000 Sec. IV: "we can have the grid move while centered
   /// on the robot"). When false the window is placed by the first frame and stays there.

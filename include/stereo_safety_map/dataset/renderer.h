@@ -85,6 +85,13 @@ class StereoRenderer {
   bool render(const Eigen::Isometry3d& T_world_left, std::uint64_t frame, cv::Mat* left,
               cv::Mat* right, cv::Mat* left_depth = nullptr, cv::Mat* left_ids = nullptr);
 
+  /// The left camera's depth Z [m] along the optical axis (CV_32F, +inf where nothing is hit)
+  /// and optionally the primitive seen (CV_32S, -1 where none) from `T_world_left`, cast exactly
+  /// as render() casts them, without shading either image: the exact geometry of a frame (test
+  /// disparities and clouds). Returns false (outputs untouched) when the pose is not finite.
+  bool renderDepth(const Eigen::Isometry3d& T_world_left, cv::Mat* left_depth,
+                   cv::Mat* left_ids = nullptr);
+
   /// Noise-free radiance of one ray (for tests): grey level before noise, blur and quantisation.
   float shadeRay(const Ray& ray, double t_min, Hit* hit = nullptr) const;
 
@@ -112,6 +119,7 @@ class StereoRenderer {
   cv::Mat depth_;  // CV_32F, left
   cv::Mat ids_;    // CV_32S, left
   bool want_aux_ = false;
+  bool depth_only_ = false;         // renderDepth(): cast the left rays, shade nothing
   std::vector<float> gauss_table_;  // unit normal samples for the image noise
 };
 
