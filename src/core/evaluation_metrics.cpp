@@ -268,21 +268,26 @@ PlaneAccuracy comparePlane(const GroundPlane& detected, const std::vector<int>& 
 
 // ---------------------------------------------------------------------------------------------
 
+BoardAxes boardAxes(const BoardBox& board) {
+  BoardAxes a;
+  a.height = 0;
+  for (int k = 1; k < 3; ++k) {
+    if (std::abs(board.rotation(2, k)) > std::abs(board.rotation(2, a.height))) a.height = k;
+  }
+  const int a0 = (a.height + 1) % 3, a1 = (a.height + 2) % 3;
+  a.width = board.half_size[a0] >= board.half_size[a1] ? a0 : a1;
+  a.thickness = a.width == a0 ? a1 : a0;
+  return a;
+}
+
 BoardCoverage boardWidthCoverage(const VoxelGrid& grid, const BoardBox& board,
                                  std::vector<std::uint8_t>* covered_bins) {
   if (covered_bins != nullptr) covered_bins->clear();
   BoardCoverage cov;
   const double lv = grid.config().voxel_size;
-  if (!board.center.allFinite() || !board.rotation.allFinite() || !board.half_size.allFinite() ||
-      (board.half_size.array() < 0.0).any())
-    return cov;
-  // Axes: the most vertical is the height; of the other two, the longer is the width.
-  int h_axis = 0;
-  for (int k = 1; k < 3; ++k) {
-    if (std::abs(board.rotation(2, k)) > std::abs(board.rotation(2, h_axis))) h_axis = k;
-  }
-  const int a0 = (h_axis + 1) % 3, a1 = (h_axis + 2) % 3;
-  const int w_axis = board.half_size[a0] >= board.half_size[a1] ? a0 : a1;
+  if (!board.valid()) return cov;
+  const BoardAxes axes = boardAxes(board);
+  const int h_axis = axes.height, w_axis = axes.width;
   const double half_width = board.half_size[w_axis];
   cov.bins = std::max(1, static_cast<int>(std::ceil(2.0 * half_width / lv - 1e-9)));
   const double bin = 2.0 * half_width / cov.bins;
@@ -360,18 +365,10 @@ BoardCoverage boardWidthCoverageOfCells(const SafetyMap& map,
   const double lv = map.resolution;
   const std::size_t cells = static_cast<std::size_t>(std::max(0, map.width)) *
                             static_cast<std::size_t>(std::max(0, map.height));
-  if (!(lv > 0.0) || marked.size() != cells || !board.center.allFinite() ||
-      !board.rotation.allFinite() || !board.half_size.allFinite() ||
-      (board.half_size.array() < 0.0).any())
-    return cov;
+  if (!(lv > 0.0) || marked.size() != cells || !board.valid()) return cov;
   // The same axes and bins as boardWidthCoverage().
-  int h_axis = 0;
-  for (int k = 1; k < 3; ++k) {
-    if (std::abs(board.rotation(2, k)) > std::abs(board.rotation(2, h_axis))) h_axis = k;
-  }
-  const int a0 = (h_axis + 1) % 3, a1 = (h_axis + 2) % 3;
-  const int w_axis = board.half_size[a0] >= board.half_size[a1] ? a0 : a1;
-  const int t_axis = w_axis == a0 ? a1 : a0;
+  const BoardAxes axes = boardAxes(board);
+  const int h_axis = axes.height, w_axis = axes.width, t_axis = axes.thickness;
   const double half_width = board.half_size[w_axis];
   cov.bins = std::max(1, static_cast<int>(std::ceil(2.0 * half_width / lv - 1e-9)));
   const double bin = 2.0 * half_width / cov.bins;

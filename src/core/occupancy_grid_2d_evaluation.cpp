@@ -175,19 +175,10 @@ std::string countDropOffEdges(const SafetyMap& map, const LabelGrid& truth,
 BoardCoverage boardWidthCoverage2D(const OccupancyGrid2D& grid, const BoardBox& board) {
   BoardCoverage cov;
   const double l = grid.config().resolution;
-  if (!board.center.allFinite() || !board.rotation.allFinite() || !board.half_size.allFinite() ||
-      (board.half_size.array() < 0.0).any()) {
-    return cov;
-  }
-  // Axes as in boardWidthCoverage(): the most vertical is the height; of the other two the
-  // longer is the width, the shorter the thickness. Only their xy parts matter here.
-  int h_axis = 0;
-  for (int k = 1; k < 3; ++k) {
-    if (std::abs(board.rotation(2, k)) > std::abs(board.rotation(2, h_axis))) h_axis = k;
-  }
-  const int a0 = (h_axis + 1) % 3, a1 = (h_axis + 2) % 3;
-  const int w_axis = board.half_size[a0] >= board.half_size[a1] ? a0 : a1;
-  const int t_axis = w_axis == a0 ? a1 : a0;
+  if (!board.valid()) return cov;
+  // The axes of boardWidthCoverage(); only their xy parts matter here.
+  const BoardAxes axes = boardAxes(board);
+  const int w_axis = axes.width, t_axis = axes.thickness;
   Eigen::Vector2d w_dir = board.rotation.col(w_axis).head<2>();
   Eigen::Vector2d t_dir = board.rotation.col(t_axis).head<2>();
   if (w_dir.norm() < 1e-9 || t_dir.norm() < 1e-9) return cov;

@@ -5,6 +5,11 @@
 // code as the nodelets: StereoFrameProcessor (disparity, voxel grid, labelling) and, on its
 // disparity, ObstacleDetector and ObstacleCueFusion.
 //
+// Why one file of ~810 lines (issue 17 asks for a reason above ~800): it is already one function
+// per part (parseArgs, scoreFrame, evaluateBag: the frame loop, main: the report); split into
+// run / score / report units as the other evaluators are, their result structs (MethodScore,
+// Latency, DatasetResult) would move into a header of their own for ten lines over the mark.
+//
 //   evaluate_obstacles --bag A.bag [--bag B.bag ...] [--latency-bag L.bag ...] [--out DIR]
 //                      [--params config/safety_map.yaml] [--obstacle-params
 //                      config/obstacle_detection.yaml] [--every N] [--max-frames N]

@@ -161,7 +161,21 @@ struct BoardBox {
   Eigen::Vector3d center = Eigen::Vector3d::Zero();
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< columns: the box axes in world
   Eigen::Vector3d half_size = Eigen::Vector3d::Zero();     ///< along those axes [m]
+
+  /// Finite, with no negative half size.
+  bool valid() const {
+    return center.allFinite() && rotation.allFinite() && half_size.allFinite() &&
+           !(half_size.array() < 0.0).any();
+  }
 };
+
+/// The board's axes (indices into BoardBox::rotation's columns): the most vertical is the
+/// height; of the other two the longer is the width, the shorter the thickness. Every board
+/// coverage below uses these.
+struct BoardAxes {
+  int height = 2, width = 0, thickness = 1;
+};
+BoardAxes boardAxes(const BoardBox& board);
 
 struct BoardCoverage {
   int bins = 0;     ///< width samples, one per l_v
