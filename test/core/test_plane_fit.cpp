@@ -293,87 +293,86 @@ TEST(PlaneFitter, VerticalMarginRestoresTheSlopeOfANoisyRampBand) {
 // A level floor seen from cameras at different heights: the nearer a point along its ray, the
 // higher (stereo noise in front of the surface). Each voxel's list keeps its 8 nearest points,
 // so a plane on the lists stands above the floor; on the voxels' moments every point counts.
-TEST(PlaneFitter, ObservationMeansFitEveryPointNotTheNearest) {
-  VoxelGridConfig gc;
-  gc.size_x = gc.size_y = 4.0;
-  VoxelGrid grid(gc);
-  grid.recenter(Eigen::Vector3f::Zero());
-  std::vector<Eigen::Vector3f> one(1);
+// A grid that receives one point per call, each seen from straight above by a camera whose
+// height grows with the frame f: the list of a voxel keeps the earliest frames' points.
+struct PointsFromAbove {
+  static VoxelGridConfig config() {
+    VoxelGridConfig gc;
+    gc.size_x = gc.size_y = 4.0;
+    return gc;
+  }
+  PointsFromAbove() : grid(config()) { grid.recenter(Eigen::Vector3f::Zero()); }
+  void add(int f, float x, float y, float z) {
+    const Eigen::Isometry3f T(Eigen::Translation3f(x, y, 1.0f + 0.05f * f));
+    const std::vector<Eigen::Vector3f> one{Eigen::Vector3f(x, y, z) - T.translation()};
+    grid.integrate(one, T);
+    sum += z;
+    ++n;
+  }
+  double mean() const { return sum / n; }
+  VoxelGrid grid;
   double sum = 0.0;
   int n = 0;
+};
+
+// The one segment of the columns u in [0, nu), v in [v0, v1] at height index 0.
+void oneSegment(int nu, int v0, int v1, GroundSegments* s) {
+  HeightMap hm;
+  hm.reset(-20, -20, 40, 40);
+  for (int u = 0; u < nu; ++u)
+    for (int v = v0; v <= v1; ++v)
+      hm.set(u, v, 0);
+  ASSERT_TRUE(GroundSegmentation().segment(hm, VoxelIndex{0, 0, 0}, 0.1, s));
+  ASSERT_EQ(s->numSegments(), 1);
+}
+
+TEST(PlaneFitter, ObservationMeansFitEveryPointNotTheNearest) {
+  PointsFromAbove pts;
   for (int f = 0; f < 40; ++f) {
     const float z = 0.02f - 0.001f * f;  // mean 0.0005 m
     for (int u = 0; u < 10; ++u)
-      for (int v = -2; v <= 2; ++v) {
-        const float x = 0.1f * u + 0.002f * (f % 7) - 0.006f, y = 0.1f * v + 0.002f * (f % 5);
-        const Eigen::Isometry3f T(Eigen::Translation3f(x, y, 1.0f + 0.05f * f));
-        one[0] = Eigen::Vector3f(x, y, z) - T.translation();
-        grid.integrate(one, T);
-        sum += z;
-        ++n;
-      }
+      for (int v = -2; v <= 2; ++v)
+        pts.add(f, 0.1f * u + 0.002f * (f % 7) - 0.006f, 0.1f * v + 0.002f * (f % 5), z);
   }
-  HeightMap hm;
-  hm.reset(-20, -20, 40, 40);
-  for (int u = 0; u < 10; ++u)
-    for (int v = -2; v <= 2; ++v)
-      hm.set(u, v, 0);
   GroundSegments s;
-  ASSERT_TRUE(GroundSegmentation().segment(hm, VoxelIndex{0, 0, 0}, 0.1, &s));
-  ASSERT_EQ(s.numSegments(), 1);
+  ASSERT_NO_FATAL_FAILURE(oneSegment(10, -2, 2, &s));
   PlaneFitConfig lists;
   lists.observation_means = false;
-  const GroundPlane pl = PlaneFitter(lists).fitSegment(grid, s, 0);
+  const GroundPlane pl = PlaneFitter(lists).fitSegment(pts.grid, s, 0);
   PlaneFitConfig means;
   means.observation_means = true;
-  const GroundPlane pm = PlaneFitter(means).fitSegment(grid, s, 0);
+  const GroundPlane pm = PlaneFitter(means).fitSegment(pts.grid, s, 0);
   ASSERT_TRUE(pl.valid);
   ASSERT_TRUE(pm.valid);
   EXPECT_NEAR(pl.heightAt(0.5, 0.0), 0.0165, 1e-3);  // the 8 nearest: 0.02 .. 0.013
-  EXPECT_NEAR(pm.heightAt(0.5, 0.0), sum / n, 1e-3);
+  EXPECT_NEAR(pm.heightAt(0.5, 0.0), pts.mean(), 1e-3);
   EXPECT_NEAR(pm.slope_deg, 0.0, 0.1);
-  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(n));
+  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(pts.n));
   EXPECT_EQ(pl.num_points, 8u * 50u);
 }
 
 TEST(PlaneFitter, ObservationMeansFitAStripOneCellWide) {
   // A corridor of floor one cell wide (10 x 1 cells): one mean per voxel would have no spread
   // across it and no plane; the lists' points keep their spread, moved to the voxels' means.
-  VoxelGridConfig gc;
-  gc.size_x = gc.size_y = 4.0;
-  VoxelGrid grid(gc);
-  grid.recenter(Eigen::Vector3f::Zero());
-  std::vector<Eigen::Vector3f> one(1);
-  double sum = 0.0;
-  int n = 0;
+  PointsFromAbove pts;
   for (int f = 0; f < 30; ++f) {
     const float z = 0.03f - 0.001f * f;  // mean 0.0155 m; the 8 nearest the camera are higher
     for (int u = 0; u < 10; ++u) {
       // y in -+ +- pairs: the 8 nearest (f = 0..7) are as high on either side.
-      const float x = 0.1f * u + 0.003f * (f % 5) - 0.006f,
-                  y = (f % 4 == 0 || f % 4 == 3) ? -0.03f : 0.03f;
-      const Eigen::Isometry3f T(Eigen::Translation3f(x, y, 1.0f + 0.05f * f));
-      one[0] = Eigen::Vector3f(x, y, z) - T.translation();
-      grid.integrate(one, T);
-      sum += z;
-      ++n;
+      pts.add(f, 0.1f * u + 0.003f * (f % 5) - 0.006f, (f % 4 == 0 || f % 4 == 3) ? -0.03f : 0.03f,
+              z);
     }
   }
-  HeightMap hm;
-  hm.reset(-20, -20, 40, 40);
-  for (int u = 0; u < 10; ++u)
-    hm.set(u, 0, 0);
   GroundSegments s;
-  ASSERT_TRUE(GroundSegmentation().segment(hm, VoxelIndex{0, 0, 0}, 0.1, &s));
-  ASSERT_EQ(s.numSegments(), 1);
+  ASSERT_NO_FATAL_FAILURE(oneSegment(10, 0, 0, &s));
   PlaneFitConfig means;
   means.observation_means = true;
-  const GroundPlane pm = PlaneFitter(means).fitSegment(grid, s, 0);
+  const GroundPlane pm = PlaneFitter(means).fitSegment(pts.grid, s, 0);
   ASSERT_TRUE(pm.valid) << "a strip one cell wide has a plane";
-  EXPECT_NEAR(pm.heightAt(0.5, 0.0), sum / n, 2e-3);
+  EXPECT_NEAR(pm.heightAt(0.5, 0.0), pts.mean(), 2e-3);
   EXPECT_NEAR(pm.slope_deg, 0.0, 1.0);
-  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(n));
-  const GroundPlane pl = PlaneFitter(PlaneFitConfig()).fitSegment(grid, s, 0);
+  EXPECT_EQ(pm.num_points, static_cast<std::size_t>(pts.n));
+  const GroundPlane pl = PlaneFitter(PlaneFitConfig()).fitSegment(pts.grid, s, 0);
   ASSERT_TRUE(pl.valid);
   EXPECT_GT(pl.heightAt(0.5, 0.0), pm.heightAt(0.5, 0.0) + 0.005);  // the lists sit in front
 }
