@@ -301,12 +301,12 @@ void StereoRenderer::renderBand(int cam, int tile_row, std::uint64_t /*frame*/) 
           hit.face = face;
         }
       }
-      if (depth_only_) {
+      if (aux) {
         dep[x] =
             hit.primitive >= 0 ? static_cast<float>(hit.t) : std::numeric_limits<float>::infinity();
-        if (idp != nullptr) idp[x] = hit.primitive;
-        continue;
+        idp[x] = hit.primitive;
       }
+      if (depth_only_) continue;  // renderDepth(): no shading
       Eigen::Vector3f rad;
       if (hit.primitive >= 0) {
         hit.normal =
@@ -321,11 +321,6 @@ void StereoRenderer::renderBand(int cam, int tile_row, std::uint64_t /*frame*/) 
         out[3 * x + 2] = scale * rad.x();
       } else {
         out[x] = scale * (0.299f * rad.x() + 0.587f * rad.y() + 0.114f * rad.z());
-      }
-      if (aux) {
-        dep[x] =
-            hit.primitive >= 0 ? static_cast<float>(hit.t) : std::numeric_limits<float>::infinity();
-        idp[x] = hit.primitive;
       }
     }
   }
