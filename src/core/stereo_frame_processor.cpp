@@ -219,6 +219,7 @@ bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
     }
     if (st == LandmarkStreamStatus::kStationary) {  // not moved since the filter's last frame
       r->mapper.status = FrameStatus::kStationary;
+      refreshAtRest(robot_base_position, stamp, r);
       setError(error, toString(FrameStatus::kStationary));
       return false;
     }
@@ -232,6 +233,7 @@ bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
       mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, stamp, &r->mapper);
   r->timings.mapper = r->mapper.timings;
   if (!ok) {
+    if (r->mapper.status == FrameStatus::kStationary) refreshAtRest(robot_base_position, stamp, r);
     setError(error, toString(r->mapper.status));
     return false;
   }
@@ -253,6 +255,19 @@ void StereoFrameProcessor::applyCue(const Eigen::Vector3f& robot_base_position, 
     r->cue = cue_stats_;
     r->cue_applied = true;
   }
+}
+
+void StereoFrameProcessor::refreshAtRest(const Eigen::Vector3f& robot_base_position, double stamp,
+                                         StereoFrameResult* r) {
+  if (!cue_ || !std::isfinite(stamp) || !robot_base_position.allFinite()) return;
+  if (mapper_.safetyMap().width <= 0) return;                     // no map yet
+  if (cue_->size() == 0 && cue_stats_.cells_marked == 0) return;  // nothing would change
+  // 000 Sec. IV skips the frame for the grid; the cues are single-frame evidence (003) and
+  // belong to the map of this stamp. The grid is unchanged, so the map is 000's of the last
+  // integrated frame for the robot where it stands, plus the cues live now.
+  mapper_.computeSafetyMap(robot_base_position);
+  applyCue(robot_base_position, stamp, r);
+  r->map_refreshed = true;
 }
 
 const SafetyMap& StereoFrameProcessor::recompute(const Eigen::Vector3f& robot_base_position,

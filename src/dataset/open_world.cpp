@@ -209,7 +209,11 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
             }
           }
         }
-        if (!ok) continue;
+        // A stationary frame: the nodelet republishes the map (recomputed with the live cues,
+        // StereoFrameResult::map_refreshed), and a consumer acts on it: score it too.
+        const bool republished =
+            r.mapper.status == FrameStatus::kStationary && p.mapper().safetyMap().width > 0;
+        if (!ok && !republished) continue;
         if (r.mapper.status == FrameStatus::kIntegrated) {
           // The tilt the map used (the reported pose, re-levelled when the variant does so)
           // against the true camera's.

@@ -239,12 +239,13 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     } else if (stationary) {
       // 000 Sec. IV skips the frame, but the camera saw what the map holds: the map is vouched
       // for at this stamp (and may have aged). Consumers that check its age (the safety gate)
-      // keep working while the chair stands still.
+      // keep working while the chair stands still. With live obstacle cues the processor has
+      // recomputed it with them (StereoFrameResult::map_refreshed).
       publishMap(header, true);
     }
     {
       std::lock_guard<std::mutex> cue_lock(cue_mutex_);
-      if (integrated) cue_stats_ = processor_->lastCueStats();
+      if (integrated || result.map_refreshed) cue_stats_ = processor_->lastCueStats();
       cues_live_ = processor_->cueCount();
     }
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);

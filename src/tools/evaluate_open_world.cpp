@@ -97,7 +97,11 @@ void usage() {
       "         [--conditions perfect,default,strong] [--variants default,paper,"
       "no_margin,sgbm]\n"
       "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
-      "key=value ...] [--detector] [--quiet]\n");
+      "key=value ...] [--detector] [--quiet]\n"
+      "         [--images F1,F2,...]   pictures of these frames of every scene (DIR/images/)\n"
+      "  --variants: comma-separated; name:key=value;key=value adds a variant of its own\n"
+      "  --conditions: perfect, default, strong or name:spec (degradation.h)\n"
+      "  --split report: NEVER tune on it (see the comment at the top of this file)\n");
 }
 
 bool parse(int argc, char** argv, Options* o) {

@@ -94,13 +94,23 @@ TEST(SingleFrameMapperConfig, OneHitNoDecrementsWideSeed) {
   EXPECT_DOUBLE_EQ(c.segmentation.planning_radius, base.segmentation.planning_radius);
 }
 
+// A map from few frames of the level floor (R_max 3 m); stationary frames skipped or not, without
+// the warm-up: 000 Sec. IV (the warm-up: test_safety_mapper). With the obstacle cue taking one
+// point per cell for 1 s.
+StereoFrameProcessorConfig floorConfig(bool skip_stationary) {
+  StereoFrameProcessorConfig c;
+  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
+  c.mapper.skip_stationary_frames = skip_stationary;
+  c.mapper.stationary_warmup_frames = 0;
+  c.cue.lifetime = 1.0;
+  c.cue.min_points_per_cell = 1;
+  return c;
+}
+
 TEST(StereoFrameProcessor, DisparityOfALevelFloorGivesALevelMapAndSkipsStationaryFrames) {
   const ds::StereoHeadConfig head = smallHead();
   const cv::Mat disparity = floorDisparity(head);
-  StereoFrameProcessorConfig c;
-  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
-  c.mapper.skip_stationary_frames = true;
-  c.mapper.stationary_warmup_frames = 0;  // 000 Sec. IV (the warm-up: test_safety_mapper)
+  const StereoFrameProcessorConfig c = floorConfig(true);
   StereoFrameProcessor p(c);
   const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
   StereoFrameResult r;
@@ -365,16 +375,12 @@ TEST(StereoFrameProcessor, ObstacleCueIsAnOptionalStageThatOnlyAddsNonGround) {
   const ds::StereoHeadConfig head = smallHead();
   const cv::Mat disparity = floorDisparity(head);
   const StereoCameraModel cam = cameraOf(head);
-  StereoFrameProcessorConfig c;
-  c.mapper = singleFrameMapperConfig(c.mapper, 3.0);
-  c.mapper.skip_stationary_frames = false;
+  StereoFrameProcessorConfig c = floorConfig(false);
   EXPECT_TRUE(c.obstacle_cue) << "on by default (README, \"Obstacle cue\")";
   c.obstacle_cue = false;
   StereoFrameProcessor off(c);
   EXPECT_FALSE(off.addObstacleCue(1.0, {Eigen::Vector3f(2.0f, 0.0f, 0.3f)}));
   c.obstacle_cue = true;
-  c.cue.lifetime = 1.0;
-  c.cue.min_points_per_cell = 1;
   StereoFrameProcessor on(c);
   EXPECT_FALSE(on.addObstacleCue(StereoFrameProcessor::kNoStamp, {}));
   // A cue on floor cells 2 m ahead: Non-ground in the next map, the rest untouched.
@@ -417,6 +423,50 @@ TEST(StereoFrameProcessor, ObstacleCueIsAnOptionalStageThatOnlyAddsNonGround) {
   EXPECT_TRUE(on.addObstacleCue(12.0, cue));
   on.reset();
   EXPECT_EQ(on.cueCount(), 0);
+}
+
+// A chair at rest (000 Sec. IV skips its frames): an obstacle that 003's detector reports now
+// still reaches the map (the nodelet republishes it at every stationary frame), and leaves it
+// once its cue has expired, while the grid stays untouched.
+TEST(StereoFrameProcessor, CuesReachTheMapWhileTheChairStandsStill) {
+  const ds::StereoHeadConfig head = smallHead();
+  const cv::Mat disparity = floorDisparity(head);
+  const StereoCameraModel cam = cameraOf(head);
+  StereoFrameProcessor p(floorConfig(true));
+  const Eigen::Isometry3f T = head.baseToLeftOptical().cast<float>();
+  const Eigen::Vector3f base = Eigen::Vector3f::Zero();
+  StereoFrameResult r;
+  std::string err;
+  ASSERT_TRUE(p.processDisparity(disparity, cam, T, base, 10.0, &r, &err)) << err;
+  const std::vector<SafetyLabel> before = p.mapper().safetyMap().labels;
+  ASSERT_EQ(p.mapper().safetyMap().labelAt(20, 0), SafetyLabel::kLevel);
+  // At rest, no cue: the frame is skipped and nothing is recomputed.
+  EXPECT_FALSE(p.processDisparity(disparity, cam, T, base, 10.1, &r, &err));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+  EXPECT_FALSE(r.map_refreshed);
+  // Someone steps in front of the chair: the detector's cue arrives; the next stationary frame
+  // marks it, the grid still holds one frame.
+  ASSERT_TRUE(p.addObstacleCue(10.15, {Eigen::Vector3f(2.0f, 0.0f, 0.3f)}));
+  EXPECT_FALSE(p.processDisparity(disparity, cam, T, base, 10.2, &r, &err));
+  EXPECT_EQ(r.mapper.status, FrameStatus::kStationary);
+  EXPECT_TRUE(r.map_refreshed);
+  ASSERT_TRUE(r.cue_applied);
+  EXPECT_EQ(r.cue.cells_marked, 1u);
+  EXPECT_EQ(p.mapper().framesIntegrated(), 1u);
+  const SafetyMap& at_rest = p.mapper().safetyMap();
+  EXPECT_EQ(at_rest.labelAt(20, 0), SafetyLabel::kNonGround);
+  int changed = 0;
+  for (std::size_t k = 0; k < before.size() && k < at_rest.labels.size(); ++k)
+    changed += before[k] != at_rest.labels[k] ? 1 : 0;
+  EXPECT_EQ(changed, 1);
+  // The cue expires (lifetime 1 s) while the chair still stands: the mark leaves the map.
+  EXPECT_FALSE(p.processDisparity(disparity, cam, T, base, 11.5, &r, &err));
+  EXPECT_TRUE(r.map_refreshed);
+  EXPECT_EQ(p.cueCount(), 0);
+  EXPECT_EQ(p.mapper().safetyMap().labels, before);
+  // Nothing live and nothing marked: the next stationary frame recomputes nothing.
+  EXPECT_FALSE(p.processDisparity(disparity, cam, T, base, 11.6, &r, &err));
+  EXPECT_FALSE(r.map_refreshed);
 }
 
 TEST(StereoFrameProcessor, BadInputIsRefusedWithAReason) {

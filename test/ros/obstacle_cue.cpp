@@ -1,7 +1,9 @@
 // The safety-map nodelet's obstacle cue end to end: after the floor has become Level, a cue
 // cloud (what ObstacleDetectionNodelet publishes on `obstacles`) on an empty floor cell makes that
 // cell Non-ground in the next map; once the cue is older than its lifetime the cell is Level again
-// (the voxel grid never saw an obstacle there). The nodelet with the cue off ignores it.
+// (the voxel grid never saw an obstacle there). The nodelet with the cue off ignores it. A third
+// nodelet skips its frames as stationary (000 Sec. IV) once its grid has warmed up: the maps it
+// republishes at rest carry the cue all the same, and lose it when it expires.
 #include "test_util.h"
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
@@ -57,13 +59,18 @@ tf2_ros::StaticTransformBroadcaster* CueTest::tf_ = nullptr;
 test_util::DiagnosticsWatcher* CueTest::diag_ = nullptr;
 
 TEST_F(CueTest, CueMarksItsCellsInTheNextMapAndExpires) {
-  test_util::ScenePublisher cue_scene(*nh_, "/cue"), nocue_scene(*nh_, "/nocue");
+  test_util::ScenePublisher cue_scene(*nh_, "/cue"), nocue_scene(*nh_, "/nocue"),
+      rest_scene(*nh_, "/rest");
   Latest<nav_msgs::OccupancyGrid> cue_map(*nh_, "/cue/safety_map");
+  Latest<nav_msgs::OccupancyGrid> rest_map(*nh_, "/rest/safety_map");
+  ros::Publisher rest_pub = nh_->advertise<sensor_msgs::PointCloud2>("/rest/obstacles", 10);
   Latest<nav_msgs::OccupancyGrid> nocue_map(*nh_, "/nocue/safety_map");
   ros::Publisher cue_pub = nh_->advertise<sensor_msgs::PointCloud2>("/cue/obstacles", 10);
   ros::Publisher nocue_pub = nh_->advertise<sensor_msgs::PointCloud2>("/nocue/obstacles", 10);
   ASSERT_TRUE(cue_scene.waitForSubscribers(20.0));
   ASSERT_TRUE(nocue_scene.waitForSubscribers(20.0));
+  ASSERT_TRUE(rest_scene.waitForSubscribers(20.0));
+  ASSERT_TRUE(waitFor([&] { return rest_pub.getNumSubscribers() > 0; }, 10.0));
   ASSERT_TRUE(waitFor([&] { return cue_pub.getNumSubscribers() > 0; }, 10.0))
       << "the cue nodelet did not subscribe to obstacles";
   test_util::sleepFor(0.5);
@@ -73,13 +80,15 @@ TEST_F(CueTest, CueMarksItsCellsInTheNextMapAndExpires) {
     t += ros::Duration(dt);
     cue_scene.publishDisparity(t);
     nocue_scene.publishDisparity(t);
+    rest_scene.publishDisparity(t);
   };
   // Waits for the maps of stamp t.
   auto maps = [&] {
     return waitFor(
         [&] {
-          auto a = cue_map.get(), b = nocue_map.get();
-          return a && b && a->header.stamp == t && b->header.stamp == t;
+          auto a = cue_map.get(), b = nocue_map.get(), c = rest_map.get();
+          return a && b && c && a->header.stamp == t && b->header.stamp == t &&
+                 c->header.stamp == t;
         },
         10.0);
   };
@@ -90,16 +99,26 @@ TEST_F(CueTest, CueMarksItsCellsInTheNextMapAndExpires) {
   ASSERT_EQ(costAt(*cue_map.get(), kCueX, kCueY), 0) << "the floor is Level";
   ASSERT_EQ(costAt(*nocue_map.get(), kCueX, kCueY), 0);
   ASSERT_EQ(costAt(*cue_map.get(), 2.3, 0.0), 100) << "the box, from the grid";
+  ASSERT_EQ(costAt(*rest_map.get(), kCueX, kCueY), 0) << "/rest: the floor is Level";
+  ASSERT_EQ(costAt(*rest_map.get(), 2.3, 0.0), 100);
+  const std::string skipped = "frames skipped (stationary)";
+  ASSERT_TRUE(waitFor([&] { return diag_->lastValue("/rest/safety_map", skipped) == "0"; }, 5.0))
+      << "/rest: the warm-up integrates the first frames";
 
   // A cue at the frame's stamp, then the next frame: Non-ground at once.
   cue_pub.publish(cueCloud(kCueX, kCueY, "odom", t));
   nocue_pub.publish(cueCloud(kCueX, kCueY, "odom", t));
+  rest_pub.publish(cueCloud(kCueX, kCueY, "odom", t));
   test_util::sleepFor(0.3);
   frame(0.1);
   ASSERT_TRUE(maps());
   EXPECT_EQ(costAt(*cue_map.get(), kCueX, kCueY), 100);
   EXPECT_EQ(costAt(*nocue_map.get(), kCueX, kCueY), 0) << "cue off: ignored";
   EXPECT_EQ(costAt(*cue_map.get(), kCueX, -kCueY), 0) << "only the cue's cell";
+  EXPECT_EQ(costAt(*rest_map.get(), kCueX, kCueY), 100) << "/rest: the cue at rest";
+  EXPECT_EQ(costAt(*rest_map.get(), kCueX, -kCueY), 0);
+  EXPECT_TRUE(waitFor([&] { return diag_->lastValue("/rest/safety_map", skipped) == "1"; }, 5.0))
+      << "/rest: that frame was skipped as stationary, its map recomputed with the cue";
   EXPECT_TRUE(waitFor(
       [&] {
         return diag_->lastValue("/cue/safety_map", "cells made Non-ground by the cue, last map") ==
@@ -111,6 +130,7 @@ TEST_F(CueTest, CueMarksItsCellsInTheNextMapAndExpires) {
   frame(0.7);
   ASSERT_TRUE(maps());
   EXPECT_EQ(costAt(*cue_map.get(), kCueX, kCueY), 0);
+  EXPECT_EQ(costAt(*rest_map.get(), kCueX, kCueY), 0) << "/rest: the expired cue left the map";
 
   // A cue in another tf frame (base_link, at the origin of odom here) is transformed.
   cue_pub.publish(cueCloud(kCueX, -kCueY, "base_link", t));

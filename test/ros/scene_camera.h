@@ -44,6 +44,17 @@ inline stereo_safety_map::dataset::StereoHeadConfig head(double height, double m
   return c;
 }
 
+/// The head's camera model (the renderer's: cx = (width - 1) / 2) and its CameraInfo.
+inline stereo_safety_map::StereoCameraModel cameraModel(
+    const stereo_safety_map::dataset::StereoHeadConfig& h) {
+  return stereo_safety_map::dataset::stereoCameraModel(h);
+}
+
+inline sensor_msgs::CameraInfo cameraInfo(const stereo_safety_map::dataset::StereoHeadConfig& h,
+                                          bool right, const std_msgs::Header& header) {
+  return stereo_safety_map::toCameraInfo(cameraModel(h), right, header);
+}
+
 inline geometry_msgs::TransformStamped toMsg(const Eigen::Isometry3d& T, const std::string& parent,
                                              const std::string& child) {
   geometry_msgs::TransformStamped t = tf2::eigenToTransform(T);

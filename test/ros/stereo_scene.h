@@ -73,11 +73,11 @@ inline const stereo_safety_map::dataset::StereoHeadConfig& head() {
 
 /// The renderer's camera model (cx = (width - 1) / 2, f = kF to rounding).
 inline stereo_safety_map::StereoCameraModel cameraModel() {
-  return stereo_safety_map::dataset::stereoCameraModel(head());
+  return scene_camera::cameraModel(head());
 }
 
 inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
+  return scene_camera::cameraInfo(head(), right, header);
 }
 
 /// base_link -> left optical frame (x right, y down, z forward), pitched down.

@@ -54,11 +54,11 @@ inline const stereo_safety_map::dataset::StereoHeadConfig& head() {
 }
 
 inline stereo_safety_map::StereoCameraModel cameraModel() {
-  return stereo_safety_map::dataset::stereoCameraModel(head());
+  return scene_camera::cameraModel(head());
 }
 
 inline sensor_msgs::CameraInfo cameraInfo(bool right, const std_msgs::Header& header) {
-  return stereo_safety_map::toCameraInfo(cameraModel(), right, header);
+  return scene_camera::cameraInfo(head(), right, header);
 }
 
 // The box: x in [2.0, 2.6], y in [-0.3, 0.3], z in [0, 0.5] (odom).

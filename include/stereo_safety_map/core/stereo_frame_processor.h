@@ -24,6 +24,12 @@
 // grid integrates, not on stationary ones), and the obstacle cue (`obstacle_cue`; cues are handed
 // in with addObstacleCue()).
 //
+// A stationary frame (000 Sec. IV) leaves the grid alone, but while cues are live or the map
+// still shows cue marks, the map is recomputed from the unchanged grid with the cues of the
+// frame's stamp (ours): an obstacle that 003's detector reports while the chair stands still
+// reaches the map the nodelet republishes, and a cue that expired leaves it.
+// StereoFrameResult::map_refreshed says so; the frame's status stays kStationary.
+//
 // Every frame carries its stamp [s]: the mapper ages the map with it (max_cell_age) and the
 // landmark filter and the obstacle cue need it. With kNoStamp the frame is not aged and no cue
 // applies (the landmark filter refuses it).
@@ -93,6 +99,7 @@ struct StereoFrameResult {
   bool landmark_filter_ran = false;    ///< the filter ran on this frame (on, not stationary)
   LandmarkFilterStats landmarks;       ///< its counters when it ran
   bool cue_applied = false;            ///< the obstacle cue marked this frame's map
+  bool map_refreshed = false;          ///< stationary frame: the map recomputed with the live cues
   ObstacleCueStats cue;                ///< what it did when applied
   StereoFrameTimings timings;
 };
@@ -184,6 +191,10 @@ class StereoFrameProcessor {
                            StereoFrameResult* r);
   // Paper 003's cue on the current map (obstacle_cue.h), when on and the stamp is finite.
   void applyCue(const Eigen::Vector3f& robot_base_position, double stamp, StereoFrameResult* r);
+  // A stationary frame: the map recomputed with the cues of `stamp` while any is live or the
+  // map still shows cue marks (see the top of this file).
+  void refreshAtRest(const Eigen::Vector3f& robot_base_position, double stamp,
+                     StereoFrameResult* r);
   // The shared tail of every entry point: landmark filter (when `camera` is given), mapper,
   // obstacle cue, on points_.
   bool integrate(const StereoCameraModel* camera, const Eigen::Isometry3f& T_fixed_sensor,
