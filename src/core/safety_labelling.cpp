@@ -47,6 +47,10 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(max_step_height) || max_step_height <= 0.0 || max_step_height > 10.0) {
     return "max_step_height (h_T) must be in (0, 10] m";
   }
+  if (!std::isfinite(step_height_margin) || step_height_margin < 0.0 ||
+      step_height_margin >= max_step_height) {
+    return "step_height_margin must be in [0, max_step_height) m";
+  }
   if (min_passage_cells < 1 || min_passage_cells > 100000) {
     return "min_passage_cells (num_T) must be in [1, 100000]";
   }
@@ -73,6 +77,9 @@ std::string SafetyLabellingConfig::validate() const {
   }
   if (!std::isfinite(drop_off_min_drop) || drop_off_min_drop < 0.0 || drop_off_min_drop > 10.0) {
     return "drop_off_min_drop must be in [0, 10] m";
+  }
+  if (!std::isfinite(drop_off_sink) || drop_off_sink < 0.0 || drop_off_sink > 10.0) {
+    return "drop_off_sink must be in [0, 10] m (0 = off)";
   }
   return "";
 }
@@ -179,6 +186,8 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
   const int gap = config_.max_gap_cells;
   const int reach = gap + 1;
   const bool measured = config_.measured_step_test;
+  // h_T less the measurement's margin (SafetyLabellingConfig::step_height_margin).
+  const double crossable = config_.crossableStep();
   // Local surface heights are needed by the step test, the small-obstacle rule and the floor
   // fragments.
   const bool heights = measured || config_.small_obstacles;
@@ -221,7 +230,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         }
         if (heights) {
           const float zn = localSurfaceHeight(hm, segs, cn);
-          nb_close[j] = nb_close[j] || std::abs(zc - zn) < config_.max_step_height;  // NaN: no
+          nb_close[j] = nb_close[j] || std::abs(zc - zn) < crossable;  // NaN: no
           nb_near[j] = nb_near[j] || std::abs(zc - zn) < config_.floor_fragment_tolerance;
           const float rise = zc - zn;
           if (!(nb_rise[j] >= rise)) nb_rise[j] = rise;  // NaN-safe max
@@ -278,7 +287,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           // Two sides of a step that GroundSegmentationConfig::split_steps measured are judged
           // by their planes alone: their top voxels' points, the upper tail of the lower
           // side's noise, stand within h_T of the upper side's.
-          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < config_.max_step_height ||
+          ok = std::abs(ps->heightAt(xc, yc) - pr->heightAt(xc, yc)) < crossable ||
                (measured && nb_close[j] && !segs.splitSiblings(k, nb_seg[j]));
         }
         contacts_.push_back(Contact{k, nb_seg[j], ok, nb_rise[j], c, nb_near[j] ? 1 : 0});
@@ -586,6 +595,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     // read, labels written, so the margin does not spread.
     if (!measured) local_z_.assign(n, kLocalZPending);
     const double drop = std::max(config_.max_step_height, config_.drop_off_min_drop);
+    const double sink = config_.drop_off_sink;
     margin_.clear();
     for (int k = 0; k < nseg; ++k) {
       if (!isSafe(m.segments[k].label)) continue;
@@ -595,10 +605,20 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
         const float zc = localSurfaceHeight(hm, segs, c);
         if (std::isnan(zc)) continue;
         const int u = c % width, v = c / width;
+        // SafetyLabellingConfig::drop_off_sink: the cell's own measured surface below the
+        // segment's plane, beside a cell that was never seen.
+        const float z_own = hm.surfaceHeightAtIndex(c);
+        const bool sunk =
+            sink > 0.0 && z_own < pk.heightAt((m.min_u + u) * l, (m.min_v + v) * l) - sink;
         for (int j = 0; j < 8; ++j) {
           const int un = u + kDu[j], vn = v + kDv[j];
           if (un < 0 || vn < 0 || un >= width || vn >= m.height) continue;
           const int cn = vn * width + un;
+          if (sunk && segs.examined[cn] && segs.segment_of[cn] < 0 &&
+              hm.atIndex(cn) == HeightMap::kNoHeight) {
+            margin_.push_back(c);
+            break;
+          }
           if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
           const float zn = segs.segment_of[cn] >= 0 ? localSurfaceHeight(hm, segs, cn)
                                                     : hm.surfaceHeightAtIndex(cn);
@@ -793,7 +813,7 @@ void SafetyLabelling::labelIsolatedGround(const HeightMap& hm, const SafetyMap& 
       const double x = (m.min_u + c % width) * l, y = (m.min_v + c / width) * l;
       const double xs = (m.min_u + src % width) * l, ys = (m.min_v + src / width) * l;
       const double dz = std::abs(pk.heightAt(x, y) - ps.heightAt(xs, ys));
-      if (dz <= config_.max_step_height + safe_distance_[c] * l * tan_max && openLine(c, src)) {
+      if (dz <= config_.crossableStep() + safe_distance_[c] * l * tan_max && openLine(c, src)) {
         state[g] = 1;
         break;
       }

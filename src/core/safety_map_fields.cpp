@@ -210,6 +210,15 @@ ParamFieldList<M> makeMapperFields() {
       .unit("m")
       .live(kStage)
       .doc("h_T: largest plane height difference the robot crosses (000 Alg. 2 step 17: 0.05).");
+  l.add("step_height_margin", &M::labelling, &SafetyLabellingConfig::step_height_margin)
+      .closedOpen(0, 10)
+      .unit("m")
+      .live(kStage)
+      .doc(
+          "taken off h_T wherever Alg. 2 asks whether a step between two measured surfaces is "
+          "crossable (planes, measured surfaces, isolated ground; not the footprint bridge): "
+          "stereo reads a step low, so a step "
+          "measured within this margin of h_T is not crossed; must be below h_T (ours; 0 = 000).");
   l.add("min_passage_cells", &M::labelling, &SafetyLabellingConfig::min_passage_cells)
       .closed(1, 100000)
       .unit("cells")
@@ -283,6 +292,13 @@ ParamFieldList<M> makeMapperFields() {
           "border cells of safe segments beside an observed surface lower by more than "
           "max(h_T, drop_off_min_drop) are Non-ground: stereo carries a drop's upper edge over "
           "the lower level (ours; false = 000).");
+  l.add("drop_off_sink", &M::labelling, &SafetyLabellingConfig::drop_off_sink)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "with drop_off_margin: a border cell of a safe segment next to a cell never seen whose "
+          "measured surface lies more than this below its segment's plane is a drop's edge whose "
+          "lower side was not seen: Non-ground (ours; 0 = off, as 000).");
   l.add("mark_drop_offs", &M::labelling, &SafetyLabellingConfig::mark_drop_offs)
       .live(kStage)
       .doc("annotate potential drop-off edges (000 Sec. VI).");

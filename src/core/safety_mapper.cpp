@@ -126,7 +126,9 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.overhang_roof.enabled = false;              // 000: the top voxel alone (Sec. V-A)
   c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
   c.labelling.measured_step_test = false;       // 000 Alg. 2 steps 15-17: planes only
+  c.labelling.step_height_margin = 0.0;         // 000 Alg. 2 step 17: h_T alone
   c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
+  c.labelling.drop_off_sink = 0.0;              // 000 Sec. VI: annotation only
   c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
   c.plane_fit.observation_means = false;        // 000 Sec. V-B: the voxels' point lists
   c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window

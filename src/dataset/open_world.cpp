@@ -264,6 +264,44 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
                             si.indexed_height, cw.x(), cw.y(), si.plane.centroid.z());
               seg_txt << line;
             }
+            // Every examined cell: where it is, what the map and the ground truth call it, its
+            // segment, its column's indexed height and its measured surface height.
+            std::ofstream cells_csv(options.image_dir + "/" + name + "_cells.csv");
+            cells_csv
+                << "x,y,label,gt,segment,w,surface_z,ground_z,lo_m2,lo_m1,lo_0,lo_1,n_m1,n_0\n";
+            const HeightMap& hm = p.mapper().heightMap();
+            for (int v = sm.min_v; v < sm.min_v + sm.height; ++v) {
+              for (int u = sm.min_u; u < sm.min_u + sm.width; ++u) {
+                const int c = sm.index(u, v);
+                if (sm.labels[c] == SafetyLabel::kUnexamined) continue;
+                const Eigen::Vector2d pw = T_world_odom * sm.cellCenter(u, v);
+                const int gu = static_cast<int>(std::lround(pw.x() / gt.resolution));
+                const int gv = static_cast<int>(std::lround(pw.y() / gt.resolution));
+                const SafetyLabel g = gt_grid.at(gu, gv);
+                const int hu = u - hm.minU(), hv = v - hm.minV();
+                const bool in_hm = hu >= 0 && hv >= 0 && hu < hm.width() && hv < hm.height();
+                const float sz = in_hm ? hm.surfaceHeightAtIndex(hv * hm.width() + hu)
+                                       : std::numeric_limits<float>::quiet_NaN();
+                const float gz = in_hm ? hm.groundHeightAtIndex(hv * hm.width() + hu)
+                                       : std::numeric_limits<float>::quiet_NaN();
+                const VoxelGrid& vg = p.mapper().grid();
+                int lo[4] = {0, 0, 0, 0};
+                int np[2] = {0, 0};
+                for (int w = -2; w <= 1; ++w) {
+                  const VoxelIndex vi{u, v, w};
+                  if (!vg.contains(vi)) continue;
+                  lo[w + 2] = vg.logOdds(vi);
+                  if (w == -1 || w == 0) np[w + 1] = static_cast<int>(vg.points(vi).size);
+                }
+                char line[200];
+                std::snprintf(line, sizeof(line),
+                              "%.2f,%.2f,%s,%s,%d,%d,%.3f,%.3f,%d,%d,%d,%d,%d,%d\n", pw.x(), pw.y(),
+                              toString(sm.labels[c]), toString(g), sm.segment[c],
+                              static_cast<int>(sm.column_height[c]), sz, gz, lo[0], lo[1], lo[2],
+                              lo[3], np[0], np[1]);
+                cells_csv << line;
+              }
+            }
           }
           cv::imwrite(
               options.image_dir + "/" + name + ".png",

@@ -63,6 +63,7 @@ SafetyLabellingConfig paperLabelling() {
   c.small_obstacles = false;
   c.footprint_bridge = 0.0;
   c.isolated_ground_unknown = false;
+  c.step_height_margin = 0.0;
   return c;
 }
 
@@ -124,6 +125,8 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.max_gap_cells = 11; }, "max_gap_cells");
   bad([](auto& b) { b.max_gap_cells = -1; }, "max_gap_cells");
   bad([](auto& b) { b.floor_fragment_tolerance = 1.5; }, "floor_fragment_tolerance");
+  bad([](auto& b) { b.step_height_margin = -0.01; }, "step_height_margin");
+  bad([](auto& b) { b.step_height_margin = 0.05; }, "step_height_margin");  // not below h_T
   c.max_step_height = -1.0;
   EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
 }
@@ -632,13 +635,38 @@ TEST(SafetyLabelling, MeasuredStepTestStillStopsAtAStep) {
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(3, 10), L::kLevel);
   EXPECT_EQ(w.at(15, 10), L::kNonGround);
-  // ... and a 4 cm one is crossed.
+  // ... and a 3.5 cm one is crossed (h_T less step_height_margin: 4 cm).
   for (int v = 0; v < 20; ++v)
     for (int u = 10; u < 20; ++u)
-      w.hm.setSurfaceHeight(u, v, 0.04f);
-  w.planeAt(15, 10) = horizontal(0.04);
+      w.hm.setSurfaceHeight(u, v, 0.035f);
+  w.planeAt(15, 10) = horizontal(0.035);
   ASSERT_TRUE(w.label(c));
   EXPECT_EQ(w.at(15, 10), L::kLevel);
+}
+
+TEST(SafetyLabelling, AStepMeasuredWithinTheMarginOfHtIsNotCrossed) {
+  // A sunken floor (indexed height -1) measured 4.5 cm below the robot's: dev seed 49's 5.6 cm
+  // drop reads so in stereo. 000 crosses it (4.5 < h_T); with step_height_margin = 1 cm it is a
+  // drop, while a step measured 3.5 cm is still crossed. Planes and measured surfaces agree.
+  const std::vector<std::string> rows(10, "000000000aaaaaaaaa");
+  for (const double margin : {0.0, 0.01}) {
+    for (const double z : {-0.035, -0.045}) {
+      World w(rows, 2, 5, 0, islandSegmentation());
+      ASSERT_EQ(w.segs.numSegments(), 2);
+      for (int v = 0; v < 10; ++v)
+        for (int u = 0; u < 18; ++u)
+          w.hm.setSurfaceHeight(u, v, u < 9 ? 0.0f : static_cast<float>(z));
+      w.planeAt(3, 5) = horizontal(0.0);
+      w.planeAt(15, 5) = horizontal(z);
+      SafetyLabellingConfig c;
+      c.step_height_margin = margin;
+      ASSERT_TRUE(w.label(c));
+      const bool crossed = margin == 0.0 || z > -0.04;
+      EXPECT_EQ(w.at(3, 5), L::kLevel);
+      EXPECT_EQ(w.at(15, 5), crossed ? L::kLevel : L::kNonGround)
+          << "margin " << margin << ", step " << z;
+    }
+  }
 }
 
 TEST(SafetyLabelling, MeasuredStepTestIsNotFooledByACurbsFace) {
@@ -816,6 +844,42 @@ TEST(SafetyLabellingFloorFragments, AFragmentAtADropIsNotSafe) {
   EXPECT_FALSE(isSafe(f.w.at(10, 2)));  // the street, below a failed step
   EXPECT_EQ(f.w.at(6, 2), L::kNonGround);
   EXPECT_EQ(f.w.at(7, 1), L::kNonGround);  // the floor's own edge cells alike
+}
+
+// A curb seen from the side whose street was never seen (dev seed 44): the sidewalk's last row
+// of columns holds the street's upper noise tail in the sidewalk's voxel band and measures 3 cm
+// below the sidewalk's plane; beyond it no column has a height. drop_off_sink makes that row
+// Non-ground; a row 1.5 cm low (the floor's own noise at range) and the same row with the rule
+// off stay Level, and so does a sunken row with observed ground beyond it.
+TEST(SafetyLabellingDropOffMargin, AnEdgeSinkingIntoTheUnseenIsNonGround) {
+  const std::vector<std::string> rows = {"000000000000", "000000000000", "000000000000",
+                                         "000000000000", "000000000000", "000000000000",
+                                         "............", "............"};
+  for (const double edge_z : {-0.03, -0.015}) {
+    for (const double sink : {0.0, 0.025}) {
+      World w(rows, 2, 1, 0, islandSegmentation());
+      for (int v = 0; v < 6; ++v)
+        for (int u = 0; u < 12; ++u)
+          w.hm.setSurfaceHeight(u, v, v == 5 ? static_cast<float>(edge_z) : 0.0f);
+      SafetyLabellingConfig c;
+      c.drop_off_sink = sink;
+      ASSERT_TRUE(c.drop_off_margin);
+      ASSERT_TRUE(w.label(c));
+      EXPECT_EQ(w.at(6, 2), L::kLevel);
+      EXPECT_EQ(w.at(6, 5), sink > 0.0 && edge_z < -0.025 ? L::kNonGround : L::kLevel)
+          << "edge " << edge_z << ", sink " << sink;
+      EXPECT_EQ(w.at(6, 6), L::kUnknown);
+    }
+  }
+  // Sunken by 3 cm, but ground was seen beyond it: the rule is about edges into the unseen.
+  std::vector<std::string> seen = rows;
+  seen[6] = seen[7] = "000000000000";
+  World w(seen, 2, 1, 0, islandSegmentation());
+  for (int v = 0; v < 8; ++v)
+    for (int u = 0; u < 12; ++u)
+      w.hm.setSurfaceHeight(u, v, v == 5 ? -0.03f : 0.0f);
+  ASSERT_TRUE(w.label(SafetyLabellingConfig()));
+  EXPECT_EQ(w.at(6, 5), L::kLevel);
 }
 
 // The robot's own segment a fragment: the seed rule picks the two cells at the base's indexed
