@@ -98,7 +98,9 @@ void usage() {
       "no_margin,sgbm]\n"
       "         [--jobs N] [--max-frames N] [--out DIR] [--params YAML ...] [--set "
       "key=value ...] [--detector] [--quiet]\n"
-      "         [--images F1,F2,...]   pictures of these frames of every scene (DIR/images/)\n"
+      "         [--images F1,F2,...]   pictures of these frames of every scene (DIR/images/),\n"
+      "                                beside each its segments (_segments.txt) and cells "
+      "(_cells.csv)\n"
       "  --variants: comma-separated; name:key=value;key=value adds a variant of its own\n"
       "  --conditions: perfect, default, strong or name:spec (degradation.h)\n"
       "  --split report: NEVER tune on it (see the comment at the top of this file)\n");
