@@ -30,6 +30,10 @@ std::string GroundSegmentationConfig::validate() const {
   if (!std::isfinite(split_min_step) || split_min_step <= 0.0 || split_min_step > 10.0) {
     return "split_min_step must be in (0, 10] m";
   }
+  if (!std::isfinite(seed_support_max_offset) || seed_support_max_offset < 0.0 ||
+      seed_support_max_offset > 1.0) {
+    return "seed_support_max_offset must be in [0, 1] m";
+  }
   if (split_min_cells < 1 || split_min_cells > 100000) {
     return "split_min_cells must be in [1, 100000] cells";
   }
@@ -57,7 +61,7 @@ long long radiusSquaredCells(double radius, double voxel_size) {
 }  // namespace
 
 bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, double voxel_size,
-                                 GroundSegments* out) {
+                                 GroundSegments* out, float base_z) {
   if (out == nullptr) return false;
   GroundSegments& s = *out;
   s.min_u = hm.minU();
@@ -99,7 +103,9 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   }
 
   // The robot's footprint: ground at the base's height where nothing was observed
-  // (GroundSegmentationConfig::footprint_radius).
+  // (GroundSegmentationConfig::footprint_radius). disk_: the examined cells within
+  // footprint_radius of the robot's cell.
+  disk_.clear();
   if (config_.footprint_radius > 0.0) {
     const long long f2 = radiusSquaredCells(config_.footprint_radius, voxel_size);
     const long long fc = static_cast<long long>(std::floor(std::sqrt(static_cast<double>(f2))));
@@ -110,10 +116,12 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
         const long long du = u - robot.u, dv = v - robot.v;
         if (du * du + dv * dv > f2) continue;
         const int cell = s.index(static_cast<int>(u), static_cast<int>(v));
-        if (s.examined[cell] && hm.atIndex(cell) == HeightMap::kNoHeight) s.footprint[cell] = 1;
+        if (s.examined[cell]) disk_.push_back(cell);
       }
     }
   }
+  for (const int cell : disk_)
+    if (hm.atIndex(cell) == HeightMap::kNoHeight) s.footprint[cell] = 1;
   // Heights as Alg. 1 sees them: the height map's, the base's on footprint cells.
   const std::int32_t robot_w = robot.w;
   auto heightOf = [&](int cell) { return s.footprint[cell] ? robot_w : hm.atIndex(cell); };
@@ -127,6 +135,48 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   const int w_t = config_.height_tolerance;
   const long long s2 = std::min(r2, radiusSquaredCells(config_.seed_radius, voxel_size));
   const long long sc = static_cast<long long>(std::floor(std::sqrt(static_cast<double>(s2))));
+  // GroundSegmentationConfig::seed_on_support: the indexed height most cells of the footprint
+  // disk hold, within w_T of the base's.
+  bool support_found = false;
+  std::int32_t support_w = robot_w;
+  if (config_.seed_on_support && !disk_.empty() && w_t >= 0 && w_t <= 64) {
+    support_count_.assign(2 * static_cast<std::size_t>(w_t) + 1, 0);
+    for (const int cell : disk_) {
+      const std::int32_t w = heightOf(cell);
+      if (w == HeightMap::kNoHeight) continue;
+      const long long dw = static_cast<long long>(w) - robot_w;
+      if (std::llabs(dw) > w_t) continue;
+      ++support_count_[static_cast<std::size_t>(dw + w_t)];
+    }
+    int best = 0;
+    for (int i = 0; i <= 2 * w_t; ++i) {
+      const int dw = i - w_t;
+      const int c = support_count_[static_cast<std::size_t>(i)];
+      if (c == 0) continue;
+      if (c > best || (c == best && std::abs(dw) < std::abs(support_w - robot_w))) {
+        best = c;
+        support_w = robot_w + dw;
+      }
+    }
+    support_found = best > 0;
+    if (support_found && support_w != robot_w) {
+      // Could the chair stand on it: its ground within seed_support_max_offset of the base's?
+      support_z_.clear();
+      for (const int cell : disk_) {
+        if (s.footprint[cell] || hm.atIndex(cell) != support_w) continue;
+        float z = hm.groundHeightAtIndex(cell);
+        if (!std::isfinite(z)) z = hm.surfaceHeightAtIndex(cell);
+        if (std::isfinite(z)) support_z_.push_back(z);
+      }
+      bool stands = false;
+      if (!support_z_.empty() && std::isfinite(base_z)) {
+        auto mid = support_z_.begin() + static_cast<std::ptrdiff_t>(support_z_.size() / 2);
+        std::nth_element(support_z_.begin(), mid, support_z_.end());
+        stands = std::abs(*mid - base_z) <= config_.seed_support_max_offset;
+      }
+      if (!stands) support_found = false;
+    }
+  }
   {
     long long best_dw = std::numeric_limits<long long>::max();
     long long best_d2 = std::numeric_limits<long long>::max();
@@ -144,7 +194,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
         const std::int32_t w = heightOf(cell);
         if (w == HeightMap::kNoHeight || !s.examined[cell]) continue;
         const long long dw = std::llabs(static_cast<long long>(w) - robot.w);
-        if (dw > w_t) continue;
+        if (dw > w_t || (support_found && w != support_w)) continue;
         const int fp = s.footprint[cell];
         if (dw < best_dw || (dw == best_dw && (fp < best_fp || (fp == best_fp && d2 < best_d2)))) {
           best_dw = dw;

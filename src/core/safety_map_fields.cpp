@@ -160,6 +160,20 @@ ParamFieldList<M> makeMapperFields() {
       .doc(
           "the robot stands on ground: unobserved cells this close to the base are ground at the "
           "base's height and seed the robot's segment (ours; 0 = 000's seed rule alone).");
+  l.add("seed_on_support", &M::segmentation, &GroundSegmentationConfig::seed_on_support)
+      .doc(
+          "the robot's segment is seeded at the indexed height most cells within "
+          "footprint_radius hold (the ground the chair stands on), not at stray columns at the "
+          "base's own height beside a floor that reads a voxel high (ours; false = the seed "
+          "rule alone).");
+  l.add("seed_support_max_offset", &M::segmentation,
+        &GroundSegmentationConfig::seed_support_max_offset)
+      .closed(0, 1)
+      .unit("m")
+      .doc(
+          "seed_on_support: a support off the base's index is taken only when its median ground "
+          "height lies this close to the base's; a floor farther off the wheels is a map whose "
+          "heights cannot be trusted near the robot (ours).");
 
   l.section("Plane fit (000 Sec. V-B)");
   l.add("min_points", &M::plane_fit, &PlaneFitConfig::min_points)

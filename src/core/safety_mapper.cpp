@@ -113,6 +113,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   SafetyMapperConfig c = config;
   c.segmentation.segment_islands = false;      // 000 Alg. 1 grows from the robot's island only
   c.segmentation.footprint_radius = 0.0;       // 000 seeds on observed ground only
+  c.segmentation.seed_on_support = false;      // 000 seeds at the base's height
   c.segmentation.split_steps = false;          // 000 Alg. 1: a segment is one indexed height
   c.height_map.observation_means = false;      // 000 Sec. IV: the voxels' point lists
   c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
@@ -509,7 +510,8 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
 
   t = Clock::now();
   if (finite) {
-    segmentation_.segment(height_map_, grid_.indexOf(robot_base_position), l, &segments_);
+    segmentation_.segment(height_map_, grid_.indexOf(robot_base_position), l, &segments_,
+                          robot_base_position.z());
   } else {
     segmentation_.segment(height_map_, VoxelIndex(), -1.0, &segments_);  // everything empty
   }

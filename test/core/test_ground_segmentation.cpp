@@ -93,6 +93,11 @@ TEST(GroundSegmentationConfig, Validate) {
   c = GroundSegmentationConfig();
   c.seed_radius = std::numeric_limits<double>::infinity();
   EXPECT_NE(c.validate().find("seed_radius"), std::string::npos);
+  c = GroundSegmentationConfig();
+  c.seed_support_max_offset = -0.01;
+  EXPECT_NE(c.validate().find("seed_support_max_offset"), std::string::npos);
+  c.seed_support_max_offset = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(c.validate().find("seed_support_max_offset"), std::string::npos);
 }
 
 TEST(GroundSegmentation, FlatFloorIsOneSegment) {
@@ -524,6 +529,77 @@ TEST(GroundSegmentationFootprint, ObservedGroundWithinTheSeedRadiusAndTheFootpri
   ASSERT_EQ(s.robot_segment, 0);
   EXPECT_TRUE(s.footprint[s.seed_cell]);
   EXPECT_NE(s.segment_of[s.index(10, 2)], 0);
+}
+
+// The ground the robot stands on (GroundSegmentationConfig::seed_on_support): the floor around
+// the base reads one index high (seen from afar with an unreported pitch) and two stray columns
+// still sit at the base's height. The least-difference seed rule grows the robot's segment on
+// those two columns and leaves the floor under the chair a segment of its own; with the rule on,
+// the floor that fills the footprint disk is the robot's segment. A step beside the chair that
+// holds a few of the disk's cells does not move the seed off the ground the chair stands on.
+TEST(GroundSegmentationFootprint, TheSeedIsTheGroundThatFillsTheFootprint) {
+  HeightMap hm = fromText({"1111111111", "1111111111", "1111111111", "1101111111", "1111111111",
+                           "1111101111", "1111111111"});
+  GroundSegmentationConfig c;
+  c.footprint_radius = 0.25;  // 21 cells around (3, 3)
+  c.seed_on_support = false;
+  GroundSegments s;
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{3, 3, 0}, 0.1, &s));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_EQ(s.segmentSize(0), 1);  // a stray column
+  EXPECT_NE(s.segment_of[s.index(3, 3)], 0);
+
+  // The floor's ground heights 6 cm, the base at 2 cm: within seed_support_max_offset (5 cm).
+  auto setGround = [](HeightMap* m, float z) {
+    for (int v = 0; v < m->height(); ++v)
+      for (int u = 0; u < m->width(); ++u)
+        if (m->at(u, v) == 1) m->setGroundHeight(u, v, z);
+  };
+  setGround(&hm, 0.06f);
+  c.seed_on_support = true;
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{3, 3, 0}, 0.1, &s, 0.02f));
+  expectConsistent(hm, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_height[0], 1);
+  EXPECT_EQ(s.segment_of[s.index(3, 3)], 0);
+  EXPECT_EQ(s.segment_of[s.index(9, 6)], 0);
+  EXPECT_GE(s.segmentSize(0), 68);
+  // A floor that reads 8 cm above the wheels, or no base height given: the map's heights near
+  // the robot cannot be trusted, and the seed rule alone applies (the floor unreachable).
+  setGround(&hm, 0.10f);
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{3, 3, 0}, 0.1, &s, 0.02f));
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_EQ(s.segmentSize(0), 1);
+  setGround(&hm, 0.06f);
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{3, 3, 0}, 0.1, &s));
+  EXPECT_EQ(s.segment_height[0], 0);
+  c.seed_support_max_offset = 0.1;
+  setGround(&hm, 0.10f);
+  ASSERT_TRUE(GroundSegmentation(c).segment(hm, VoxelIndex{3, 3, 0}, 0.1, &s, 0.02f));
+  EXPECT_EQ(s.segment_height[0], 1);
+  c.seed_support_max_offset = 0.05;
+
+  // The robot on the lower floor (w = 0) beside a step up (w = 1) two cells away: the disk's
+  // majority is the lower floor, which stays the robot's segment.
+  HeightMap step = fromText({"0000011111", "0000011111", "0000011111", "0000011111", "0000011111",
+                             "0000011111", "0000011111"});
+  ASSERT_TRUE(GroundSegmentation(c).segment(step, VoxelIndex{3, 3, 0}, 0.1, &s));
+  expectConsistent(step, s);
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_EQ(s.segment_of[s.index(0, 0)], 0);
+  EXPECT_NE(s.segment_of[s.index(9, 3)], 0);
+
+  // Unobserved footprint cells count at the base's height: a floor one index up seen only
+  // beyond the blind zone does not take the seed (as in the test above).
+  HeightMap blind = fromText({"......1111", "......1111", "......1111", "......1111", "......1111",
+                              "......1111", "......1111"});
+  ASSERT_TRUE(GroundSegmentation(c).segment(blind, VoxelIndex{3, 3, 0}, 0.1, &s));
+  ASSERT_EQ(s.robot_segment, 0);
+  EXPECT_EQ(s.segment_height[0], 0);
+  EXPECT_TRUE(s.footprint[s.seed_cell]);
 }
 
 // --- Steps inside a segment (GroundSegmentationConfig::split_steps) ---------------------------
