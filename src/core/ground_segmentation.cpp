@@ -139,7 +139,7 @@ bool GroundSegmentation::segment(const HeightMap& hm, const VoxelIndex& robot, d
   // disk hold, within w_T of the base's.
   bool support_found = false;
   std::int32_t support_w = robot_w;
-  if (config_.seed_on_support && !disk_.empty() && w_t >= 0 && w_t <= 64) {
+  if (config_.seed_on_support && !disk_.empty() && w_t >= 0) {
     support_count_.assign(2 * static_cast<std::size_t>(w_t) + 1, 0);
     for (const int cell : disk_) {
       const std::int32_t w = heightOf(cell);
