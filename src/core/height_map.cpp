@@ -11,6 +11,10 @@ std::string HeightMapConfig::validate() const {
   if (!std::isfinite(robot_height) || robot_height <= 0.0 || robot_height > 100.0) {
     return "robot_height must be in (0, 100] m";
   }
+  if (!std::isfinite(near_view_ratio) ||
+      (near_view_ratio != 0.0 && (near_view_ratio < 1.0 || near_view_ratio > 100.0))) {
+    return "near_view_ratio must be 0 or in [1, 100]";
+  }
   return "";
 }
 
@@ -83,6 +87,17 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
       // the last one its lowest.
       int top = 0, bottom = 0;
       if (!grid.occupiedExtent(u, v, w_lo, w_hi, &top, &bottom)) continue;
+      if (config_.near_view_ratio > 0.0 && top > bottom &&
+          grid.isOccupied(VoxelIndex{u, v, top - 1})) {
+        // HeightMapConfig::near_view_ratio: the far views' noise tail over a surface seen
+        // from nearer. Lists are in ascending range: the first point is the nearest.
+        const VoxelPointList upper = grid.points(VoxelIndex{u, v, top});
+        const VoxelPointList lower = grid.points(VoxelIndex{u, v, top - 1});
+        if (!upper.empty() && !lower.empty() &&
+            upper.data[0].range > config_.near_view_ratio * lower.data[0].range) {
+          --top;
+        }
+      }
       row[u - lo.u] = top;
       row_low[u - lo.u] = bottom;
       if (config_.observation_means) {

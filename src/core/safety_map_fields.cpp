@@ -106,6 +106,13 @@ ParamFieldList<M> makeMapperFields() {
           "column heights are the means of every point their voxels received, not of the "
           "voxels' capped closest-first point lists, which bias a floor by +-2 cm (ours; false = "
           "000 Sec. IV's lists).");
+  l.add("near_view_ratio", &M::height_map, &HeightMapConfig::near_view_ratio)
+      .closed(0, 100)
+      .doc(
+          "a column's highest occupied voxel that sits on another is passed over when its "
+          "points' nearest observation is more than this many times as far as the voxel "
+          "below's: the upper noise tail of a floor seen from afar, over the floor seen from "
+          "near (ours; 0 = 000 Sec. V-A's highest voxel). 0 or [1, 100].");
   l.add("planning_radius", &M::segmentation, &GroundSegmentationConfig::planning_radius)
       .openClosed(0, 1000)
       .unit("m")

@@ -116,6 +116,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.segmentation.seed_on_support = false;      // 000 seeds at the base's height
   c.segmentation.split_steps = false;          // 000 Alg. 1: a segment is one indexed height
   c.height_map.observation_means = false;      // 000 Sec. IV: the voxels' point lists
+  c.height_map.near_view_ratio = 0.0;          // 000 Sec. V-A: the highest occupied voxel
   c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.floor_fragments = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.robot_fragment_passage = false;  // 000 Alg. 2 step 21: num_T on both sides

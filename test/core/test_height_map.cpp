@@ -217,6 +217,70 @@ TEST(HeightMap, ObservationMeansWeighEveryPointOnce) {
   EXPECT_LT(std::abs(hm.groundHeightAtIndex(c)), 0.015f);
 }
 
+TEST(HeightMap, NearViewPassesOverTheFarViewsNoiseTail) {
+  // A floor at z = 0.02 (voxel w = 0 spans [-0.05, 0.05)): seen from 3.5 m, the upper tail of
+  // its points fell into w = 1; seen from 1.4 m, its points stay in w = 0. Both voxels are
+  // occupied. A table top at w = 7 stands over another column's floor seen from near.
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> one(1);
+  auto observe = [&](int u, float z, float range) {
+    const Eigen::Vector3f p(0.1f * u, 0.1f, z);
+    const Eigen::Isometry3f T(Eigen::Translation3f(p + Eigen::Vector3f(0.0f, 0.0f, range)));
+    one[0] = p - T.translation();
+    g.integrate(one, T);
+  };
+  for (int f = 0; f < 6; ++f) {
+    observe(1, 0.06f + 0.002f * f, 3.5f);  // the far views' tail
+    observe(1, 0.01f + 0.002f * f, 3.5f);
+    observe(1, 0.015f + 0.002f * f, 1.4f);  // the near views
+    // A second column: the same floor, but its upper voxel was also seen from near (a surface
+    // there, e.g. a low box's top).
+    observe(2, 0.07f + 0.002f * f, 1.3f);
+    observe(2, 0.015f + 0.002f * f, 1.4f);
+    // A third: a table top seen from afar over a floor seen from near.
+    observe(3, 0.72f, 3.5f);
+    observe(3, 0.015f + 0.002f * f, 1.4f);
+  }
+  for (int u = 1; u <= 3; ++u) {
+    for (int w = 0; w <= 7; ++w)
+      g.setLogOdds({u, 1, w}, 0);
+    occupy(&g, u, 1, 0);
+  }
+  occupy(&g, 1, 1, 1);
+  occupy(&g, 2, 1, 1);
+  occupy(&g, 3, 1, 7);
+
+  HeightMapConfig paper, near;
+  EXPECT_EQ(paper.near_view_ratio, 0.0);  // the default: 000's highest voxel
+  near.near_view_ratio = 1.5;
+  EXPECT_EQ(near.validate(), "");
+  HeightMap hm_paper(paper), hm(near);
+  ASSERT_TRUE(hm_paper.build(g, 0.0f));
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  const int c1 = hm.index(1, 1), c2 = hm.index(2, 1), c3 = hm.index(3, 1);
+  EXPECT_EQ(hm_paper.atIndex(c1), 1);  // 000: the tail is the column's top
+  EXPECT_GT(hm_paper.surfaceHeightAtIndex(c1), 0.05f);
+  EXPECT_EQ(hm.atIndex(c1), 0);  // the floor seen from near
+  EXPECT_LT(hm.surfaceHeightAtIndex(c1), 0.05f);
+  EXPECT_EQ(hm.lowestAtIndex(c1), 0);
+  // Seen from near in the upper voxel too: kept.
+  EXPECT_EQ(hm.atIndex(c2), 1);
+  EXPECT_GT(hm.surfaceHeightAtIndex(c2), 0.05f);
+  // Not directly on the voxel below: kept.
+  EXPECT_EQ(hm.atIndex(c3), 7);
+  // Below the ratio (3.5 / 1.4 = 2.5): kept.
+  near.near_view_ratio = 3.0;
+  HeightMap hm_strict(near);
+  ASSERT_TRUE(hm_strict.build(g, 0.0f));
+  EXPECT_EQ(hm_strict.atIndex(c1), 1);
+  // Invalid values.
+  near.near_view_ratio = 0.5;
+  EXPECT_NE(near.validate().find("near_view_ratio"), std::string::npos);
+  near.near_view_ratio = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(near.validate(), "");
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

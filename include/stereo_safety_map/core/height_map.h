@@ -31,6 +31,23 @@ struct HeightMapConfig {
   /// together with PlaneFitConfig::observation_means (docs/evaluation.md, "Heights from capped
   /// point lists"), not alone enough to make it the default.
   bool observation_means = false;
+  /// The near view decides a floor's voxel (ours; 0 = 000 Sec. V-A's highest occupied voxel).
+  /// The vertical error of a stereo point grows with its range (squared for the disparity's
+  /// error, 001 Sec. 4.1; linearly for an unreported chassis pitch or roll): a floor seen from
+  /// 3-4 m leaves the upper tail of its points in the voxel above its own, and the increments
+  /// of many frames make that voxel occupied. When the chair drives there, the floor seen from
+  /// 1.3-2 m puts its points in its own voxel only, but the log-odds of the voxel above (incr_H
+  /// per hit, decr per passing ray) do not fall for many frames: the column stands one voxel
+  /// (l_v) above the floor, and a floor the chair stands on is a step away from it (the whole
+  /// map unreachable, docs/evaluation.md "The ground the chair stands on"). With this > 0, a
+  /// column's highest occupied voxel that sits directly on another occupied voxel is passed
+  /// over when the nearest observation of its points is more than near_view_ratio times as far
+  /// as the nearest of the voxel below (both from the voxels' closest-first point lists): the
+  /// surface seen from nearer is the column's surface. A surface in the upper voxel seen from
+  /// near puts its points there, and the top of an obstacle is seen from as near as its
+  /// face (a camera looking down sees higher voxels only from nearer), so neither is passed
+  /// over. 0 or [1, 100].
+  double near_view_ratio = 0.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
