@@ -63,6 +63,17 @@ ParamFieldList<M> makeMapperFields() {
       .closed(0, 32767)
       .live(kGrid)
       .doc("incr_L, log-odds added to its fore and aft neighbours on the ray (000 Sec. IV: 4).");
+  l.add("neighbour_sigmas", &M::grid, &VoxelGridConfig::neighbour_sigmas)
+      .closed(0, 100)
+      .live(kGrid)
+      .doc(
+          "incr_L only where the point's range error reaches: a fore / aft neighbour whose face "
+          "is farther along the ray than this many sigma_Z = Z^2 sigma_d / (f b) (001 Sec. "
+          "4.1) gets nothing (ours; 0 = 000 Sec. IV, always incr_L).");
+  l.add("disparity_sigma", &M::grid, &VoxelGridConfig::disparity_sigma)
+      .openClosed(0, 10)
+      .live(kGrid)
+      .doc("sigma_d [px] of neighbour_sigmas (001 Sec. 4.1; ours).");
   l.add("decr", &M::grid, &VoxelGridConfig::decr)
       .closed(0, 32767)
       .live(kGrid)
@@ -108,6 +119,7 @@ ParamFieldList<M> makeMapperFields() {
           "000 Sec. IV's lists).");
   l.add("near_view_ratio", &M::height_map, &HeightMapConfig::near_view_ratio)
       .closed(0, 100)
+      .rangeText("0 or [1, 100]")
       .doc(
           "a column's highest occupied voxel that sits on another is passed over when its "
           "points' nearest observation is more than this many times as far as the voxel "

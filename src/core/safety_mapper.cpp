@@ -154,7 +154,8 @@ bool sameGrid(const VoxelGridConfig& a, const VoxelGridConfig& b) {
          a.incr_low == b.incr_low && a.decr == b.decr && a.occ_threshold == b.occ_threshold &&
          a.lop_min == b.lop_min && a.lop_max == b.lop_max &&
          a.point_list_capacity == b.point_list_capacity && a.max_range == b.max_range &&
-         a.min_range == b.min_range;
+         a.min_range == b.min_range && a.neighbour_sigmas == b.neighbour_sigmas &&
+         a.disparity_sigma == b.disparity_sigma;
 }
 
 constexpr double kNoTime = std::numeric_limits<double>::quiet_NaN();

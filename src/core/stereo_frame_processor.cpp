@@ -229,6 +229,8 @@ bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
     r->timings.landmark_cpu_ms = landmarks_.lastCpuMs();
   }
   r->points = points_.size();
+  // VoxelGridConfig::neighbour_sigmas: the range error of these points (001 Sec. 4.1).
+  if (camera != nullptr) mapper_.setStereoGeometry(camera->fx * camera->baseline);
   const bool ok =
       mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, stamp, &r->mapper);
   r->timings.mapper = r->mapper.timings;

@@ -111,6 +111,10 @@ std::string VoxelGridConfig::validate() const {
     return describe("min_range", min_range, "finite and >= 0 [m]");
   if (!(max_range > min_range) || !std::isfinite(max_range))
     return describe("max_range", max_range, "finite and > min_range [m]");
+  if (!(neighbour_sigmas >= 0.0 && neighbour_sigmas <= 100.0))
+    return describe("neighbour_sigmas", neighbour_sigmas, "in [0, 100]");
+  if (!(disparity_sigma > 0.0 && disparity_sigma <= 10.0))
+    return describe("disparity_sigma", disparity_sigma, "in (0, 10] [px]");
   return {};
 }
 
@@ -324,7 +328,7 @@ void VoxelGrid::insertPoint(std::size_t k, const Eigen::Vector3f& p, float range
 // window first, so a camera outside the grid costs nothing for the part outside. Applies the
 // decrements of 000 Sec. IV immediately and queues incr_L for the fore neighbour; the endpoint
 // and aft neighbour are handled by the caller.
-void VoxelGrid::castRay(const double a[3], const double b[3], const int e[3],
+void VoxelGrid::castRay(const double a[3], const double b[3], const int e[3], bool fore_increment,
                         IntegrationStats& stats) {
   const double n[3] = {static_cast<double>(nu_), static_cast<double>(nv_),
                        static_cast<double>(nw_)};
@@ -387,7 +391,7 @@ void VoxelGrid::castRay(const double a[3], const double b[3], const int e[3],
   while (total > 0) {
     const std::size_t k = ku + kv + kw;
     if (total == 1) {  // fore neighbour
-      addIncrement(k, config_.incr_low);
+      if (fore_increment) addIncrement(k, config_.incr_low);
       break;
     }
     const int v = lop[k] - decr;
@@ -439,7 +443,22 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
   // neighbour to find (fuzzing found it), only the endpoint.
   const bool traceable = std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]) &&
                          std::isfinite(b[0]) && std::isfinite(b[1]) && std::isfinite(b[2]);
-  if (traceable) castRay(a, b, e, stats);
+  const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  // VoxelGridConfig::neighbour_sigmas: k sigma_Z at the point's range (001 Sec. 4.1) as a
+  // fraction of the segment camera -> point (the ray parameter t runs 0 .. 1 over it).
+  const bool model = neighbour_reach_ > 0.0 && traceable && ep.range > 0.0f;
+  const double reach_t = model ? neighbour_reach_ * static_cast<double>(ep.range) : 0.0;
+  bool fore_increment = true;
+  if (model) {
+    // The ray entered e at t_in = 1 - (the largest of the per-axis entry parameters below 1).
+    double t_in = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < 3; ++i) {
+      if (d[i] == 0.0) continue;
+      t_in = std::max(t_in, ((e[i] + (d[i] > 0.0 ? 0.0 : 1.0)) - b[i]) / d[i]);
+    }
+    fore_increment = -t_in <= reach_t;
+  }
+  if (traceable) castRay(a, b, e, fore_increment, stats);
 
   if (inside) {
     addIncrement(k, config_.incr_high);
@@ -447,7 +466,6 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
   }
   if (!traceable) return;
   // Aft neighbour: the voxel the ray enters when it leaves e beyond the point.
-  const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   int ax = -1;
   double best = std::numeric_limits<double>::infinity();
   for (int i = 0; i < 3; ++i) {
@@ -459,6 +477,7 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
     }
   }
   if (ax < 0) return;  // the point is at the camera: no direction, no aft neighbour
+  if (model && best > reach_t) return;
   int f[3] = {e[0], e[1], e[2]};
   f[ax] += d[ax] > 0.0 ? 1 : -1;
   if (static_cast<unsigned>(f[0]) < static_cast<unsigned>(nu_) &&
@@ -564,6 +583,15 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
   }
   num_touched_ = 0;
   return stats;
+}
+
+void VoxelGrid::setStereoGeometry(double focal_times_baseline) {
+  const bool known = std::isfinite(focal_times_baseline) && focal_times_baseline > 0.0;
+  focal_times_baseline_ = known ? focal_times_baseline : 0.0;
+  // k sigma_Z / Z^2 = k sigma_d / (f b) (001 Sec. 4.1).
+  neighbour_reach_ = known && config_.neighbour_sigmas > 0.0
+                         ? config_.neighbour_sigmas * config_.disparity_sigma / focal_times_baseline
+                         : 0.0;
 }
 
 int VoxelGrid::logOdds(const VoxelIndex& i) const {

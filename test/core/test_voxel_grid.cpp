@@ -179,6 +179,11 @@ TEST(VoxelGridConfig, RejectsEachBadValueNamingTheParameter) {
       {"max_range", [](VoxelGridConfig& c) { c.max_range = 0.2; }},  // == min_range
       {"max_range",
        [](VoxelGridConfig& c) { c.max_range = std::numeric_limits<double>::infinity(); }},
+      {"neighbour_sigmas", [](VoxelGridConfig& c) { c.neighbour_sigmas = -1.0; }},
+      {"neighbour_sigmas", [&](VoxelGridConfig& c) { c.neighbour_sigmas = nan; }},
+      {"neighbour_sigmas", [](VoxelGridConfig& c) { c.neighbour_sigmas = 101.0; }},
+      {"disparity_sigma", [](VoxelGridConfig& c) { c.disparity_sigma = 0.0; }},
+      {"disparity_sigma", [](VoxelGridConfig& c) { c.disparity_sigma = 11.0; }},
   };
   for (const auto& [name, mutate] : cases) {
     VoxelGridConfig c;
@@ -326,6 +331,71 @@ TEST(VoxelGridSensorModel, AxisAlignedRayExactValues) {
   EXPECT_EQ(h.logOdds(idx(0, 0, 5)), 20);
   EXPECT_EQ(h.logOdds(idx(0, 0, 4)), 3);
   EXPECT_EQ(countNonZero(h), 12u);
+}
+
+TEST(VoxelGridSensorModel, NeighbourIncrementOnlyWhereTheRangeErrorReaches) {
+  // f b = 500 px x 0.12 m, sigma_d 0.5 px: sigma_Z = Z^2 / 120 (001 Sec. 4.1); 2 sigma_Z is
+  // 1.7 cm at 1 m and 15 cm at 3 m. Voxel 10 spans [0.95, 1.05) m, voxel 30 [2.95, 3.05) m.
+  VoxelGridConfig c;
+  c.neighbour_sigmas = 2.0;
+  const double fb = 500.0 * 0.12;
+
+  // Without the stereo geometry the paper's rule: incr_L on both sides.
+  VoxelGrid paper(c);
+  seeWorld(paper, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(paper.logOdds(idx(9, 0, 0)), 4);
+  EXPECT_EQ(paper.logOdds(idx(11, 0, 0)), 4);
+
+  // Near: both faces 5 cm from the point, beyond 1.7 cm: no incr_L, and the fore neighbour is
+  // not decremented either.
+  VoxelGrid near(c);
+  near.setStereoGeometry(fb);
+  seeWorld(near, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(near.logOdds(idx(8, 0, 0)), -1);
+  EXPECT_EQ(near.logOdds(idx(9, 0, 0)), 0);
+  EXPECT_EQ(near.logOdds(idx(10, 0, 0)), 10);
+  EXPECT_EQ(near.logOdds(idx(11, 0, 0)), 0);
+
+  // 1 cm before the aft face: the aft neighbour is within reach, the fore one (9 cm) is not.
+  VoxelGrid edge(c);
+  edge.setStereoGeometry(fb);
+  seeWorld(edge, Vec::Zero(), {Vec(1.04f, 0.0f, 0.0f)});
+  EXPECT_EQ(edge.logOdds(idx(9, 0, 0)), 0);
+  EXPECT_EQ(edge.logOdds(idx(11, 0, 0)), 4);
+
+  // Far: 5 cm is well within 15 cm, incr_L on both sides as in the paper.
+  VoxelGrid far(c);
+  far.setStereoGeometry(fb);
+  seeWorld(far, Vec::Zero(), {Vec(3.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(far.logOdds(idx(29, 0, 0)), 4);
+  EXPECT_EQ(far.logOdds(idx(30, 0, 0)), 10);
+  EXPECT_EQ(far.logOdds(idx(31, 0, 0)), 4);
+
+  // A floor point seen from above at 1.3 m: its ray enters the floor voxel through the top
+  // face, so the paper's fore neighbour is the voxel above the floor.
+  const Vec cam(0.0f, 0.0f, 1.2f), floor_point(0.5f, 0.0f, 0.0f);
+  VoxelGrid above_paper(c), above(c);
+  above.setStereoGeometry(fb);
+  seeWorld(above_paper, cam, {floor_point});
+  seeWorld(above, cam, {floor_point});
+  EXPECT_EQ(above_paper.logOdds(idx(5, 0, 1)), 4);
+  EXPECT_EQ(above.logOdds(idx(5, 0, 1)), 0);
+  EXPECT_EQ(above.logOdds(idx(5, 0, 0)), 10);
+
+  // neighbour_sigmas 0, or an unknown geometry, is the paper's rule.
+  c.neighbour_sigmas = 0.0;
+  VoxelGrid off(c);
+  off.setStereoGeometry(fb);
+  seeWorld(off, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(off.logOdds(idx(9, 0, 0)), 4);
+  EXPECT_EQ(off.logOdds(idx(11, 0, 0)), 4);
+  c.neighbour_sigmas = 2.0;
+  VoxelGrid unknown(c);
+  unknown.setStereoGeometry(fb);
+  unknown.setStereoGeometry(std::numeric_limits<double>::quiet_NaN());
+  seeWorld(unknown, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(unknown.logOdds(idx(9, 0, 0)), 4);
+  EXPECT_EQ(unknown.logOdds(idx(11, 0, 0)), 4);
 }
 
 void checkRayAgainstSampling(const Eigen::Isometry3f& T, const Vec& world_point) {

@@ -184,6 +184,12 @@ class SafetyMapper {
                       const Eigen::Vector3f& robot_base_position, double stamp,
                       FrameResult* out = nullptr);
 
+  /// f b [px m] of the stereo camera behind the next frames' points (VoxelGrid::
+  /// setStereoGeometry, for VoxelGridConfig::neighbour_sigmas); 0 = unknown.
+  void setStereoGeometry(double focal_times_baseline) {
+    grid_.setStereoGeometry(focal_times_baseline);
+  }
+
   /// Whether integrateFrame() would skip a frame from `T_fixed_sensor` as stationary (000 Sec.
   /// IV): skipping is on, a frame was integrated before, and the camera has moved less than both
   /// thresholds since. Lets a filter in front of the grid (LandmarkStreamFilter) see the same
