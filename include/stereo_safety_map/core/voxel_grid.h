@@ -49,20 +49,19 @@ struct VoxelGridConfig {
   double min_range = 0.2;       ///< points closer than this are ignored [m]
   /// incr_L where the point's range error reaches (ours; 0 = 000 Sec. IV: the fore and aft
   /// neighbours always get incr_L). incr_L spreads a point's evidence along its ray because its
-  /// range is uncertain; stereo's range error grows with the square of the range (001 Sec. 4.1:
-  /// sigma_Z = Z^2 sigma_d / (f b)). Near the camera that error is a fraction of l_v, yet a floor
-  /// point whose ray enters its voxel through the top face gives incr_L to the voxel above the
-  /// floor in every frame, more than the passing rays take away: the voxel above a floor seen
-  /// from far (where its noise tail reaches it) is never cleared when the chair comes near, and
-  /// the floor reads a voxel high (docs/evaluation.md, "The fore neighbour above the floor").
-  /// With this > 0 and the stereo geometry known (setStereoGeometry()), a neighbour gets incr_L
-  /// only when the distance along the ray from the point to the face it shares with the
-  /// endpoint's voxel is at most neighbour_sigmas x sigma_Z at the point's range; otherwise it
-  /// gets nothing (the fore neighbour is not decremented either). Measured on the open-world
-  /// dev split (docs/evaluation.md, "The fore neighbour above the floor"): at 2 or 4 nothing
-  /// changes (FP 21.7 %: the voxels that matter are fed from 2-4 m, where 2 sigma_Z exceeds
-  /// l_v); at 0.5 / 1 FP 18.2 / 19.6 % with FN 1.5 -> 1.8 / 2.0 % and more forgotten obstacle
-  /// cells, a worse trade than halving incr_low. Off by default. [0, 100].
+  /// range is uncertain; stereo's depth error grows with the square of the depth (001 Sec. 4.1:
+  /// sigma_Z = Z^2 sigma_d / (f b)). A floor point whose ray enters its voxel through the top
+  /// face gives incr_L to the voxel above the floor, and one such point per frame out-weighs the
+  /// passing rays' decr: the voxel above the floor fills without a point in it and the floor
+  /// reads a voxel high (docs/evaluation.md, "The fore neighbour above the floor"). With this > 0
+  /// and the stereo geometry known (setStereoGeometry()), a neighbour gets incr_L only when the
+  /// distance along the ray from the point to the face it shares with the endpoint's voxel is at
+  /// most neighbour_sigmas x sigma_d r^2 / (f b) at the point's range r (r >= Z: at least the
+  /// error along the ray, |P| Z sigma_d / (f b)); otherwise it gets nothing (the fore neighbour
+  /// is not decremented either). Measured on the open-world dev split (same section): at 2 or 4
+  /// nothing changes (FP 21.7 %: the voxels that matter are fed from 2-4 m, where 2 sigma is
+  /// more than l_v); at 0.5 / 1 FP 18.2 / 19.6 % with FN 1.5 -> 1.8 / 2.0 % and more forgotten
+  /// obstacle cells, a worse trade than halving incr_low. Off by default. [0, 100].
   double neighbour_sigmas = 0.0;
   /// sigma_d [px] of neighbour_sigmas: the disparity error's standard deviation (001 Sec. 4.1;
   /// the landmark filter's default). (0, 10].
@@ -239,7 +238,6 @@ class VoxelGrid {
   double inv_voxel_size_ = 0.0;
   // neighbour_sigmas x sigma_d / (f b) [1/m]: k sigma_Z = this x range^2; 0 = incr_L always.
   double neighbour_reach_ = 0.0;
-  double focal_times_baseline_ = 0.0;
   VoxelIndex min_;
   std::uint32_t frame_ = 0;
   std::uint32_t stamp_now_ = 0;            // stamp of the current frame, 0 = never
