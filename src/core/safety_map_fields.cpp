@@ -63,6 +63,12 @@ ParamFieldList<M> makeMapperFields() {
       .closed(0, 32767)
       .live(kGrid)
       .doc("incr_L, log-odds added to its fore and aft neighbours on the ray (000 Sec. IV: 4).");
+  l.add("incr_low_fore", &M::grid, &VoxelGridConfig::incr_low_fore)
+      .closed(-1, 32767)
+      .live(kGrid)
+      .doc(
+          "incr_L of the fore neighbour alone: for a floor point seen from above it is the voxel "
+          "above the floor (ours; -1 = incr_low, 000 Sec. IV).");
   l.add("neighbour_sigmas", &M::grid, &VoxelGridConfig::neighbour_sigmas)
       .closed(0, 100)
       .live(kGrid)

@@ -155,7 +155,7 @@ bool sameGrid(const VoxelGridConfig& a, const VoxelGridConfig& b) {
          a.lop_min == b.lop_min && a.lop_max == b.lop_max &&
          a.point_list_capacity == b.point_list_capacity && a.max_range == b.max_range &&
          a.min_range == b.min_range && a.neighbour_sigmas == b.neighbour_sigmas &&
-         a.disparity_sigma == b.disparity_sigma;
+         a.incr_low_fore == b.incr_low_fore && a.disparity_sigma == b.disparity_sigma;
 }
 
 constexpr double kNoTime = std::numeric_limits<double>::quiet_NaN();

@@ -93,6 +93,8 @@ std::string VoxelGridConfig::validate() const {
   if (incr_high < 0 || incr_high > kI16Max)
     return describe("incr_high", incr_high, "in [0, 32767]");
   if (incr_low < 0 || incr_low > kI16Max) return describe("incr_low", incr_low, "in [0, 32767]");
+  if (incr_low_fore < -1 || incr_low_fore > kI16Max)
+    return describe("incr_low_fore", incr_low_fore, "in [-1, 32767]");
   if (decr < 0 || decr > kI16Max) return describe("decr", decr, "in [0, 32767]");
   if (lop_min < kI16Min || lop_min >= 0) return describe("lop_min", lop_min, "in [-32768, -1]");
   if (lop_max <= 0 || lop_max > kI16Max) return describe("lop_max", lop_max, "in [1, 32767]");
@@ -391,7 +393,9 @@ void VoxelGrid::castRay(const double a[3], const double b[3], const int e[3], bo
   while (total > 0) {
     const std::size_t k = ku + kv + kw;
     if (total == 1) {  // fore neighbour
-      if (fore_increment) addIncrement(k, config_.incr_low);
+      if (fore_increment) {
+        addIncrement(k, config_.incr_low_fore < 0 ? config_.incr_low : config_.incr_low_fore);
+      }
       break;
     }
     const int v = lop[k] - decr;

@@ -398,6 +398,48 @@ TEST(VoxelGridSensorModel, NeighbourIncrementOnlyWhereTheRangeErrorReaches) {
   EXPECT_EQ(unknown.logOdds(idx(11, 0, 0)), 4);
 }
 
+TEST(VoxelGridSensorModel, ForeNeighbourIncrementOfItsOwn) {
+  // incr_low_fore -1 (default): the fore neighbour gets incr_low, as in 000 Sec. IV.
+  VoxelGridConfig c;
+  c.incr_low = 4;
+  EXPECT_EQ(c.incr_low_fore, -1);
+  VoxelGrid paper(c);
+  seeWorld(paper, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(paper.logOdds(idx(9, 0, 0)), 4);
+  EXPECT_EQ(paper.logOdds(idx(11, 0, 0)), 4);
+
+  // 0: the fore neighbour gets nothing (and is not decremented), the aft one incr_low.
+  c.incr_low_fore = 0;
+  EXPECT_EQ(c.validate(), "");
+  VoxelGrid aft_only(c);
+  seeWorld(aft_only, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(aft_only.logOdds(idx(8, 0, 0)), -1);
+  EXPECT_EQ(aft_only.logOdds(idx(9, 0, 0)), 0);
+  EXPECT_EQ(aft_only.logOdds(idx(10, 0, 0)), 10);
+  EXPECT_EQ(aft_only.logOdds(idx(11, 0, 0)), 4);
+
+  // A floor point seen from above: the voxel above the floor is left alone, the one below it
+  // (the aft neighbour) still gets incr_low.
+  const Vec cam(0.0f, 0.0f, 1.2f), floor_point(0.5f, 0.0f, 0.0f);
+  VoxelGrid above(c);
+  seeWorld(above, cam, {floor_point});
+  EXPECT_EQ(above.logOdds(idx(5, 0, 1)), 0);
+  EXPECT_EQ(above.logOdds(idx(5, 0, 0)), 10);
+  EXPECT_EQ(above.logOdds(idx(5, 0, -1)), 4);
+
+  // 2: its own amount.
+  c.incr_low_fore = 2;
+  VoxelGrid two(c);
+  seeWorld(two, Vec::Zero(), {Vec(1.0f, 0.0f, 0.0f)});
+  EXPECT_EQ(two.logOdds(idx(9, 0, 0)), 2);
+  EXPECT_EQ(two.logOdds(idx(11, 0, 0)), 4);
+
+  c.incr_low_fore = -2;
+  EXPECT_NE(c.validate().find("incr_low_fore"), std::string::npos);
+  c.incr_low_fore = 40000;
+  EXPECT_NE(c.validate().find("incr_low_fore"), std::string::npos);
+}
+
 void checkRayAgainstSampling(const Eigen::Isometry3f& T, const Vec& world_point) {
   VoxelGrid g;
   const Vec ps = T.inverse() * world_point;
