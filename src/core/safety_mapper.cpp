@@ -135,6 +135,8 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.plane_fit.observation_means = false;        // 000 Sec. V-B: the voxels' point lists
   c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window
   c.stationary_warmup_frames = 0;               // 000 Sec. IV: every stationary frame skipped
+  c.grid.neighbour_sigmas = 0.0;                // 000 Sec. IV: both neighbours always get incr_L
+  c.grid.incr_low_fore = -1;                    // 000 Sec. IV: the same incr_L on both sides
   // The look-ahead must stay within the window; 0 centres it on the robot (000 Sec. IV).
   c.grid_look_ahead = 0.0;
   return c;

@@ -595,6 +595,13 @@ TEST(SafetyMapper, AChairSwitchedOnAtRestSeesItsObstaclesBeforeItMoves) {
 
   // 000 Sec. IV: the first frame alone, on which no voxel reaches occ_t.
   EXPECT_EQ(paperFaithful(ours).stationary_warmup_frames, 0);
+  // The grid's sensor model too (000 Sec. IV: incr_L on both neighbours, always).
+  SafetyMapperConfig model = ours;
+  model.grid.neighbour_sigmas = 2.0;
+  model.grid.incr_low_fore = 0;
+  EXPECT_EQ(paperFaithful(model).grid.neighbour_sigmas, 0.0);
+  EXPECT_EQ(paperFaithful(model).grid.incr_low_fore, -1);
+  EXPECT_EQ(paperFaithful(model).grid.incr_low, model.grid.incr_low);
   SafetyMapperConfig skip_all = ours;
   skip_all.stationary_warmup_frames = 0;
   const auto p = standStill(skip_all, &n);

@@ -115,8 +115,9 @@ struct SafetyMapperConfig {
 
 /// Paper 000 as published: `config` with every switch marked "(ours)" set to the paper's rule
 /// (islands, gaps between segments, the measured step test, the drop-off margin, the plane fit's
-/// vertical margin, the grid's look-ahead, cell aging, and the safe-by-default rules of the
-/// open-world work), everything else kept. The open-world evaluation's "paper-faithful" row.
+/// vertical margin, the grid's look-ahead and neighbour rules, cell aging, and the safe-by-default
+/// rules of the open-world work), everything else kept. The open-world evaluation's
+/// "paper-faithful" row.
 SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config);
 
 /// SafetyMapperConfig::obstacle_memory's test of what is an obstacle to remember: whether the
