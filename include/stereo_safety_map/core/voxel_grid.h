@@ -52,9 +52,10 @@ struct VoxelGridConfig {
   /// range is uncertain; stereo's depth error grows with the square of the depth (001 Sec. 4.1:
   /// sigma_Z = Z^2 sigma_d / (f b)). A floor point whose ray enters its voxel through the top
   /// face gives incr_L to the voxel above the floor, and one such point per frame out-weighs the
-  /// passing rays' decr: the voxel above the floor fills without a point in it and the floor
-  /// reads a voxel high (docs/evaluation.md, "The fore neighbour above the floor"). With this > 0
-  /// and the stereo geometry known (setStereoGeometry()), a neighbour gets incr_L only when the
+  /// passing rays' decr: the voxel above the floor fills (with few points of its own, the
+  /// floor's noise tail: a rule passing over top voxels with few points changed nothing) and the
+  /// floor reads a voxel high (docs/evaluation.md, "The fore neighbour above the floor"). With this
+  /// > 0 and the stereo geometry known (setStereoGeometry()), a neighbour gets incr_L only when the
   /// distance along the ray from the point to the face it shares with the endpoint's voxel is at
   /// most neighbour_sigmas x sigma_d r^2 / (f b) at the point's range r (r >= Z: at least the
   /// error along the ray, |P| Z sigma_d / (f b)); otherwise it gets nothing (the fore neighbour
@@ -69,11 +70,11 @@ struct VoxelGridConfig {
   /// incr_L of the fore neighbour alone (ours; -1 = incr_low, as 000 Sec. IV gives both
   /// neighbours). The fore neighbour of a floor point whose ray enters its voxel through the
   /// top face is the voxel above the floor (neighbour_sigmas above); the aft neighbour of a
-  /// point on a surface lies behind or under that surface, where the increment cannot raise a
-  /// column. Measured on the open-world dev split (docs/evaluation.md, "The fore neighbour
-  /// alone"): 0 takes FP 21.7 -> 14.0 % but FN 1.5 -> 3.7 % (steps down are seen through the
-  /// fore neighbours too), 2 FP 18.3 %, FN 2.3 %: both worse than incr_low 2 for both
-  /// neighbours. Off by default. [-1, 32767].
+  /// point on a surface lies behind or under it. The measurement refutes that the fore neighbour
+  /// alone makes the false positives: the aft neighbours' increments feed them too. Measured on the
+  /// open-world dev split (docs/evaluation.md, "The fore neighbour alone"): 0 takes FP 21.7 -> 14.0
+  /// % but FN 1.5 -> 3.7 % (steps down are seen through the fore neighbours too), 2 FP 18.3 %,
+  /// FN 2.3 %: both worse than incr_low 2 for both neighbours. Off by default. [-1, 32767].
   int incr_low_fore = -1;
 
   /// Empty when valid, otherwise a message naming the first offending parameter and its range.
