@@ -58,6 +58,8 @@ std::string OpenWorldScoringConfig::validate() const {
   if (!(obstacle_min_width >= 0.0 && obstacle_min_height >= 0.0)) return "obstacle sizes >= 0";
   if (obstacle_min_pixels < 1 || obstacle_lenient_frames < 1) return "pixels and frames >= 1";
   if (!(segment_grace_s >= 0.0)) return "segment_grace_s >= 0";
+  if (!(stuck_area >= 0.0 && std::isfinite(stuck_area))) return "stuck_area >= 0";
+  if (!(footprint_radius >= 0.0 && footprint_radius < 100.0)) return "footprint_radius in [0, 100)";
   return "";
 }
 
@@ -95,6 +97,7 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   maps += o.maps;
   maps_after_grace += o.maps_after_grace;
   maps_without_robot_segment += o.maps_without_robot_segment;
+  maps_stuck += o.maps_stuck;
   forgotten_events += o.forgotten_events;
   forgotten_cells += o.forgotten_cells;
   obstacles += o.obstacles;
@@ -396,6 +399,45 @@ void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
   }
 }
 
+double reachableSafeArea(const SafetyMap& map, double footprint_radius) {
+  const int w = map.width, h = map.height;
+  const std::size_t n = static_cast<std::size_t>(std::max(0, w)) * std::max(0, h);
+  if (n == 0 || map.labels.size() != n || !(map.resolution > 0.0)) return 0.0;
+  std::vector<std::uint8_t> reached(n, 0);
+  std::vector<int> stack;
+  const int r = static_cast<int>(std::floor(footprint_radius / map.resolution + 1e-9));
+  const long long r2 = static_cast<long long>(r) * r;
+  for (int dv = -r; dv <= r; ++dv) {
+    for (int du = -r; du <= r; ++du) {
+      const int u = map.robot_u + du, v = map.robot_v + dv;
+      if (static_cast<long long>(du) * du + static_cast<long long>(dv) * dv > r2) continue;
+      if (!map.inside(u, v)) continue;
+      const int c = map.index(u, v);
+      if (reached[c] || !isSafe(map.labels[c])) continue;
+      reached[c] = 1;
+      stack.push_back(c);
+    }
+  }
+  std::size_t count = 0;
+  while (!stack.empty()) {
+    const int c = stack.back();
+    stack.pop_back();
+    ++count;
+    const int cu = c % w, cv = c / w;
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        const int u = cu + du, v = cv + dv;
+        if (u < 0 || v < 0 || u >= w || v >= h) continue;
+        const int k = v * w + u;
+        if (reached[k] || !isSafe(map.labels[k])) continue;
+        reached[k] = 1;
+        stack.push_back(k);
+      }
+    }
+  }
+  return static_cast<double>(count) * map.resolution * map.resolution;
+}
+
 void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
                                const Eigen::Isometry2d& T_world_odom, const Eigen::Vector2d& robot,
                                SceneScore* s) {
@@ -404,6 +446,7 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
   if (t >= config_.segment_grace_s) {
     ++s->maps_after_grace;
     if (map.robot_segment < 0) ++s->maps_without_robot_segment;
+    if (reachableSafeArea(map, config_.footprint_radius) < config_.stuck_area) ++s->maps_stuck;
   }
   const double res = map.resolution;
   const double r2 = config_.planning_radius * config_.planning_radius;

@@ -248,6 +248,9 @@ double coverage(const ds::SceneScore& s) {
 double noSegment(const ds::SceneScore& s) {
   return rate(s.maps_without_robot_segment, s.maps_after_grace);
 }
+double stuck(const ds::SceneScore& s) {
+  return rate(s.maps_stuck, s.maps_after_grace);
+}
 // Tilt error of the camera pose the map used (or of the reported one): the bias (mean) and the
 // RMS of its pitch and roll components [deg] (SceneScore::TiltError).
 struct TiltSummary {
@@ -432,11 +435,11 @@ int main(int argc, char** argv) {
             std::fprintf(stderr,
                          "    %-10s FN %5.2f %% FP %5.2f %% (tol 1; local %5.2f / %5.2f) coverage "
                          "%5.1f %% no seg "
-                         "%4.1f %% forgotten %d obstacles missed %d/%d\n",
+                         "%4.1f %% stuck %4.1f %% forgotten %d obstacles missed %d/%d\n",
                          variants[v].name.c_str(), 100 * fnRate(s.tol1), 100 * fpRate(s.tol1),
                          100 * fnRate(s.local_tol1), 100 * fpRate(s.local_tol1), 100 * coverage(s),
-                         100 * noSegment(s), s.forgotten_cells, s.obstacles_missed_lenient,
-                         s.obstacles_in_view);
+                         100 * noSegment(s), 100 * stuck(s), s.forgotten_cells,
+                         s.obstacles_missed_lenient, s.obstacles_in_view);
             for (const std::string& m : s.misses)
               std::fprintf(stderr, "        missed %s\n", m.c_str());
             for (const std::string& m : s.forgotten)
@@ -470,7 +473,7 @@ int main(int argc, char** argv) {
       char line[512];
       std::snprintf(line, sizeof(line),
                     "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d,"
-                    "%d,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f",
+                    "%d,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.5f",
                     cell.condition.c_str(), cell.variant.c_str(),
                     static_cast<unsigned long long>(r.seed), r.description.c_str(), s.maps,
                     fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1), fpRate(s.tol1),
@@ -478,7 +481,7 @@ int main(int argc, char** argv) {
                     s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
                     s.obstacles_missed_lenient, s.detection.frames, s.detection.precision(),
                     s.detection.recall(), s.detection.accepted_false, tu.pitch_bias, tu.pitch_rms,
-                    tr.pitch_bias, tr.pitch_rms);
+                    tr.pitch_bias, tr.pitch_rms, stuck(s));
       scene_lines.push_back(line);
     }
   }
@@ -494,7 +497,7 @@ int main(int argc, char** argv) {
            "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
            "obstacles_missed_lenient,detector_frames,detector_precision,detector_recall,"
            "detector_false_obstacles,pitch_error_bias_deg,pitch_error_rms_deg,"
-           "reported_pitch_error_bias_deg,reported_pitch_error_rms_deg\n";
+           "reported_pitch_error_bias_deg,reported_pitch_error_rms_deg,stuck\n";
     for (const std::string& l : scene_lines)
       csv << l << "\n";
   }
@@ -514,10 +517,13 @@ int main(int argc, char** argv) {
      << "). Rates in %: mean +- sd over scenes (each scene's rate from sums over its maps), "
         "worst scene. tol 1 = one cell of tolerance at label boundaries.\n\n";
   md << "| condition | variant | scenes | FN tol 0 | FN tol 1 | FP tol 0 | FP tol 1 | coverage | "
-        "FN local tol 1 | FP local tol 1 | maps without robot segment | forgotten obstacle cells | "
+        "FN local tol 1 | FP local tol 1 | maps without robot segment | maps stuck (reachable safe "
+        "ground < "
+     << run.scoring.stuck_area
+     << " m^2) | forgotten obstacle cells | "
         "obstacles missed (strict / after "
      << run.scoring.obstacle_lenient_frames
-     << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+     << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   std::ostringstream detector_md;
   detector_md << "\n## Paper 003's detector, per frame\n\nRaised points of accepted obstacles "
                  "(the obstacle cue) on an obstacle or within one cell of unsafe ground truth "
@@ -555,6 +561,7 @@ int main(int argc, char** argv) {
     const Stat lfp = stat(c, [](const ds::SceneScore& s) { return fpRate(s.local_tol1); });
     const Stat cov = stat(c, coverage, true);
     const Stat seg = stat(c, noSegment);
+    const Stat stk = stat(c, stuck);
     ds::SceneScore total;
     for (const ds::SceneScore& s : c.scenes)
       total += s;
@@ -604,9 +611,9 @@ int main(int argc, char** argv) {
     }
     md << "| " << c.condition << " | " << c.variant << " | " << c.scenes.size() << " | " << pct(fn0)
        << " | " << pct(fn1) << " | " << pct(fp0) << " | " << pct(fp1) << " | " << pct(cov) << " | "
-       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << total.forgotten_cells
-       << " | " << total.obstacles_missed_strict << " / " << total.obstacles_missed_lenient << " / "
-       << total.obstacles_in_view << " |\n";
+       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << pct(stk) << " | "
+       << total.forgotten_cells << " | " << total.obstacles_missed_strict << " / "
+       << total.obstacles_missed_lenient << " / " << total.obstacles_in_view << " |\n";
     j.open('{');
     j.kv("condition", c.condition)
         .kv("variant", c.variant)
@@ -619,6 +626,7 @@ int main(int argc, char** argv) {
     jsonStat(j, "fp_local_tol1", lfp);
     jsonStat(j, "coverage", cov);
     jsonStat(j, "maps_without_robot_segment", seg);
+    jsonStat(j, "maps_stuck", stk);
     j.kv("forgotten_cells", total.forgotten_cells).kv("forgotten_events", total.forgotten_events);
     j.kv("obstacles", total.obstacles).kv("obstacles_in_view", total.obstacles_in_view);
     j.kv("obstacles_missed_strict", total.obstacles_missed_strict);

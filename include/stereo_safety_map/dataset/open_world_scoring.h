@@ -11,7 +11,10 @@
 //    removed with the rendered depth) that the map classifies: a map that says Unknown where it
 //    has seen the ground does not look better;
 //  - per hazard class (procedural_scene.h HazardClass), FN and FP on the cells of that class;
-//  - the share of maps without a robot segment (after a grace time);
+//  - the share of maps without a robot segment (after a grace time), and of maps in which the
+//    chair is stuck: the safe ground a planner could reach from the robot's footprint
+//    (reachableSafeArea) is smaller than `stuck_area` (a robot segment of one cell counts as
+//    found, yet the chair cannot move);
 //  - forgotten obstacles: map cells over a ground-truth obstacle that were Non-ground in an
 //    earlier map and are Level or Inclined later (a real obstacle gives no free-space evidence);
 //  - obstacle checks: every obstacle at least `obstacle_min_width` wide and
@@ -61,6 +64,12 @@ struct OpenWorldScoringConfig {
   int obstacle_lenient_frames = 5;
   /// Maps before this time [s] are not asked for a robot segment.
   double segment_grace_s = 2.0;
+  /// A map after the grace time is "stuck" when the safe ground reachable from the robot's
+  /// footprint (reachableSafeArea with footprint_radius) is smaller than this [m^2]: 1 m^2 is
+  /// about one wheelchair length of travel in any direction. The procedural trajectories always
+  /// leave the chair free ground around it, so in the ground truth no map is stuck.
+  double stuck_area = 1.0;
+  double footprint_radius = 0.35;  ///< [m], as GroundSegmentationConfig::footprint_radius
 
   std::string validate() const;
 };
@@ -98,13 +107,15 @@ struct SceneScore {
   int maps = 0;
   int maps_after_grace = 0;
   int maps_without_robot_segment = 0;  ///< of those after the grace time
-  int forgotten_events = 0;            ///< obstacle cells Non-ground -> safe
-  int forgotten_cells = 0;             ///< distinct map cells forgotten at least once
-  int obstacles = 0;                   ///< qualifying obstacles in the scene
-  int obstacles_in_view = 0;           ///< of which seen from within R_max
-  int obstacles_missed_strict = 0;     ///< ever missed after the first frame in view
-  int obstacles_missed_lenient = 0;    ///< ever missed after obstacle_lenient_frames in view
-  int obstacle_maps_strict = 0;        ///< (obstacle, map) checks, strict
+  /// Maps after the grace time in which the reachable safe area is below stuck_area.
+  int maps_stuck = 0;
+  int forgotten_events = 0;          ///< obstacle cells Non-ground -> safe
+  int forgotten_cells = 0;           ///< distinct map cells forgotten at least once
+  int obstacles = 0;                 ///< qualifying obstacles in the scene
+  int obstacles_in_view = 0;         ///< of which seen from within R_max
+  int obstacles_missed_strict = 0;   ///< ever missed after the first frame in view
+  int obstacles_missed_lenient = 0;  ///< ever missed after obstacle_lenient_frames in view
+  int obstacle_maps_strict = 0;      ///< (obstacle, map) checks, strict
   int obstacle_maps_missed_strict = 0;
   int obstacle_maps_lenient = 0;
   int obstacle_maps_missed_lenient = 0;
@@ -135,6 +146,12 @@ struct SceneScore {
 
   SceneScore& operator+=(const SceneScore& o);
 };
+
+/// The area [m^2] of the safe (Level or Inclined) cells of `map` that a planner could reach from
+/// the robot: the safe cells within footprint_radius of the robot's cell (centre distance) and
+/// every safe cell 8-connected to them through safe cells. 0 when none of the footprint's cells
+/// is safe (then the chair cannot move at all).
+double reachableSafeArea(const SafetyMap& map, double footprint_radius);
 
 /// Per-scene scorer: the ground truth's look-up tables, the swept field of view and the
 /// obstacles' visibility (shared by all variants), and each variant's memory of Non-ground cells.
