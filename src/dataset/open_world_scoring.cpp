@@ -399,10 +399,20 @@ void OpenWorldScorer::scoreDetection(const ObstacleDetectionResult& result,
   }
 }
 
-double reachableSafeArea(const SafetyMap& map, double footprint_radius) {
+double reachableSafeArea(const SafetyMap& map, double footprint_radius,
+                         const std::vector<std::uint8_t>* unseen) {
   const int w = map.width, h = map.height;
   const std::size_t n = static_cast<std::size_t>(std::max(0, w)) * std::max(0, h);
   if (n == 0 || map.labels.size() != n || !(map.resolution > 0.0)) return 0.0;
+  if (unseen != nullptr && unseen->size() != n) unseen = nullptr;
+  // A cell the flood may enter: safe ground, or an Unknown / Unexamined cell whose ground the
+  // camera never saw (passed through, not counted).
+  auto passable = [&](std::size_t c) {
+    const SafetyLabel l = map.labels[c];
+    if (isSafe(l)) return true;
+    return unseen != nullptr && (*unseen)[c] != 0 &&
+           (l == SafetyLabel::kUnknown || l == SafetyLabel::kUnexamined);
+  };
   std::vector<std::uint8_t> reached(n, 0);
   std::vector<int> stack;
   const int r = static_cast<int>(std::floor(footprint_radius / map.resolution + 1e-9));
@@ -413,7 +423,7 @@ double reachableSafeArea(const SafetyMap& map, double footprint_radius) {
       if (static_cast<long long>(du) * du + static_cast<long long>(dv) * dv > r2) continue;
       if (!map.inside(u, v)) continue;
       const int c = map.index(u, v);
-      if (reached[c] || !isSafe(map.labels[c])) continue;
+      if (reached[c] || !passable(c)) continue;
       reached[c] = 1;
       stack.push_back(c);
     }
@@ -422,14 +432,14 @@ double reachableSafeArea(const SafetyMap& map, double footprint_radius) {
   while (!stack.empty()) {
     const int c = stack.back();
     stack.pop_back();
-    ++count;
+    if (isSafe(map.labels[c])) ++count;
     const int cu = c % w, cv = c / w;
     for (int dv = -1; dv <= 1; ++dv) {
       for (int du = -1; du <= 1; ++du) {
         const int u = cu + du, v = cv + dv;
         if (u < 0 || v < 0 || u >= w || v >= h) continue;
         const int k = v * w + u;
-        if (reached[k] || !isSafe(map.labels[k])) continue;
+        if (reached[k] || !passable(k)) continue;
         reached[k] = 1;
         stack.push_back(k);
       }
@@ -446,7 +456,19 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
   if (t >= config_.segment_grace_s) {
     ++s->maps_after_grace;
     if (map.robot_segment < 0) ++s->maps_without_robot_segment;
-    if (reachableSafeArea(map, config_.footprint_radius) < config_.stuck_area) ++s->maps_stuck;
+    // Cells whose ground the camera never saw (the blind zone in front of a chair at rest,
+    // ground behind it) cannot be known: the chair is not stuck behind them.
+    unseen_.assign(map.labels.size(), 0);
+    for (int v = map.min_v; v < map.min_v + map.height; ++v) {
+      for (int u = map.min_u; u < map.min_u + map.width; ++u) {
+        const int g =
+            gtIndexOf(T_world_odom * Eigen::Vector2d(u * map.resolution, v * map.resolution));
+        unseen_[map.index(u, v)] = g < 0 || !seen_[g];
+      }
+    }
+    if (reachableSafeArea(map, config_.footprint_radius, &unseen_) < config_.stuck_area) {
+      ++s->maps_stuck;
+    }
   }
   const double res = map.resolution;
   const double r2 = config_.planning_radius * config_.planning_radius;

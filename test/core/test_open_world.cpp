@@ -166,6 +166,40 @@ TEST(OpenWorldStuck, SafeGroundOutsideTheFootprintIsNotReachedWithoutAPath) {
   EXPECT_EQ(ds::reachableSafeArea(one, 0.35), 0.0);
 }
 
+TEST(OpenWorldStuck, GroundNeverSeenIsPassedThroughNotCounted) {
+  // A chair at rest: Unknown blind zone in front of its footprint (cells u 4..6), Level ground
+  // beyond it (u >= 7), the footprint itself Unknown (unseen: under the chair).
+  SafetyMap m = squareMap(SafetyLabel::kUnknown);
+  for (int v = -10; v <= 10; ++v) {
+    for (int u = 7; u <= 10; ++u)
+      m.labels[m.index(u, v)] = SafetyLabel::kLevel;
+  }
+  const double beyond = 21 * 4 * 0.01;
+  EXPECT_EQ(ds::reachableSafeArea(m, 0.35), 0.0);
+  // The camera never saw u <= 6: the chair is not stuck behind ground no map can know.
+  std::vector<std::uint8_t> unseen(m.labels.size(), 0);
+  for (int v = -10; v <= 10; ++v) {
+    for (int u = -10; u <= 6; ++u)
+      unseen[m.index(u, v)] = 1;
+  }
+  EXPECT_NEAR(ds::reachableSafeArea(m, 0.35, &unseen), beyond, 1e-9);
+  // Seen but Unknown (a pale floor the matcher found nothing on) blocks: u = 5 seen.
+  for (int v = -10; v <= 10; ++v)
+    unseen[m.index(5, v)] = 0;
+  EXPECT_EQ(ds::reachableSafeArea(m, 0.35, &unseen), 0.0);
+  // Non-ground is never passed through, seen or not.
+  for (int v = -10; v <= 10; ++v) {
+    unseen[m.index(5, v)] = 1;
+    m.labels[m.index(5, v)] = SafetyLabel::kNonGround;
+  }
+  EXPECT_EQ(ds::reachableSafeArea(m, 0.35, &unseen), 0.0);
+  // A wrong-sized mask is ignored.
+  m.labels[m.index(5, 0)] = SafetyLabel::kUnknown;
+  EXPECT_NEAR(ds::reachableSafeArea(m, 0.35, &unseen), beyond, 1e-9);
+  unseen.pop_back();
+  EXPECT_EQ(ds::reachableSafeArea(m, 0.35, &unseen), 0.0);
+}
+
 TEST(OpenWorldStuck, TheScorerAsksOnlyMapsAfterTheGraceTime) {
   // Dev seed 1 with a perfect pose: no map of the first 2 s is asked; later ones are. (Its
   // pale tiles leave the chair stuck in its first maps after the grace time, Unknown all

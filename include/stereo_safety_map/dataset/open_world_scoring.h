@@ -13,8 +13,9 @@
 //  - per hazard class (procedural_scene.h HazardClass), FN and FP on the cells of that class;
 //  - the share of maps without a robot segment (after a grace time), and of maps in which the
 //    chair is stuck: the safe ground a planner could reach from the robot's footprint
-//    (reachableSafeArea) is smaller than `stuck_area` (a robot segment of one cell counts as
-//    found, yet the chair cannot move);
+//    (reachableSafeArea; through safe cells, and through Unknown ones whose ground the camera
+//    never saw) is smaller than `stuck_area` (a robot segment of one cell counts as found, yet
+//    the chair cannot move);
 //  - forgotten obstacles: map cells over a ground-truth obstacle that were Non-ground in an
 //    earlier map and are Level or Inclined later (a real obstacle gives no free-space evidence);
 //  - obstacle checks: every obstacle at least `obstacle_min_width` wide and
@@ -149,9 +150,12 @@ struct SceneScore {
 
 /// The area [m^2] of the safe (Level or Inclined) cells of `map` that a planner could reach from
 /// the robot: the safe cells within footprint_radius of the robot's cell (centre distance) and
-/// every safe cell 8-connected to them through safe cells. 0 when none of the footprint's cells
-/// is safe (then the chair cannot move at all).
-double reachableSafeArea(const SafetyMap& map, double footprint_radius);
+/// every safe cell 8-connected to them through safe cells. `unseen` (optional, one entry per map
+/// cell): 1 where the camera never saw the cell's ground; an Unknown or Unexamined cell there
+/// may be passed through (not counted): no map can know it (the blind zone in front of a chair
+/// at rest). Non-ground never is. 0 when the footprint has no passable cell.
+double reachableSafeArea(const SafetyMap& map, double footprint_radius,
+                         const std::vector<std::uint8_t>* unseen = nullptr);
 
 /// Per-scene scorer: the ground truth's look-up tables, the swept field of view and the
 /// obstacles' visibility (shared by all variants), and each variant's memory of Non-ground cells.
@@ -212,6 +216,7 @@ class OpenWorldScorer {
   const GroundTruthMap* local_ = nullptr;
   std::vector<HazardClass> classes_;
   std::vector<std::uint8_t> seen_;         // per GT cell: ground seen by the camera
+  std::vector<std::uint8_t> unseen_;       // per map cell of the scored map: never seen (stuck)
   std::vector<std::int32_t> obstacle_of_;  // per GT cell: index into obstacles_ (the kept
                                            // ones), -1 none
   std::vector<std::uint8_t> in_view_now_;  // per obstacle: in view within R_max, last frame
