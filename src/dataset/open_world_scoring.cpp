@@ -98,6 +98,7 @@ SceneScore& SceneScore::operator+=(const SceneScore& o) {
   maps_after_grace += o.maps_after_grace;
   maps_without_robot_segment += o.maps_without_robot_segment;
   maps_stuck += o.maps_stuck;
+  maps_stuck_truth += o.maps_stuck_truth;
   forgotten_events += o.forgotten_events;
   forgotten_cells += o.forgotten_cells;
   obstacles += o.obstacles;
@@ -468,6 +469,19 @@ void OpenWorldScorer::scoreMap(int variant, const SafetyMap& map, double t,
     }
     if (reachableSafeArea(map, config_.footprint_radius, &unseen_) < config_.stuck_area) {
       ++s->maps_stuck;
+    }
+    // The same measure on the ground truth at the true robot position: the check that the
+    // scenes leave the chair free ground (maps_stuck_truth should stay 0).
+    truth_map_.min_u = gt_.min_u;
+    truth_map_.min_v = gt_.min_v;
+    truth_map_.width = gt_.width;
+    truth_map_.height = gt_.height;
+    truth_map_.resolution = gt_.resolution;
+    truth_map_.robot_u = gt_.cellOf(robot.x());
+    truth_map_.robot_v = gt_.cellOf(robot.y());
+    truth_map_.labels = gt_.labels;
+    if (reachableSafeArea(truth_map_, config_.footprint_radius) < config_.stuck_area) {
+      ++s->maps_stuck_truth;
     }
   }
   const double res = map.resolution;

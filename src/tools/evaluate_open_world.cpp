@@ -251,6 +251,9 @@ double noSegment(const ds::SceneScore& s) {
 double stuck(const ds::SceneScore& s) {
   return rate(s.maps_stuck, s.maps_after_grace);
 }
+double stuckTruth(const ds::SceneScore& s) {
+  return rate(s.maps_stuck_truth, s.maps_after_grace);
+}
 // Tilt error of the camera pose the map used (or of the reported one): the bias (mean) and the
 // RMS of its pitch and roll components [deg] (SceneScore::TiltError).
 struct TiltSummary {
@@ -284,6 +287,14 @@ Stat stat(const Cell& c, F f, bool low_is_bad = false) {
   }
   s.ms = ssm::meanStd(v);
   return s;
+}
+
+// The ground truth's stuck share: mean and worst scene only.
+std::string truthPct(const Stat& s) {
+  char buf[64];
+  if (s.ms.n == 0) return "n/a";
+  std::snprintf(buf, sizeof(buf), "%.2f, worst %.1f", 100.0 * s.ms.mean, 100.0 * s.worst);
+  return buf;
 }
 
 std::string pct(const Stat& s) {
@@ -473,7 +484,7 @@ int main(int argc, char** argv) {
       char line[512];
       std::snprintf(line, sizeof(line),
                     "%s,%s,%llu,\"%s\",%d,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d,%d,"
-                    "%d,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.5f",
+                    "%d,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.5f",
                     cell.condition.c_str(), cell.variant.c_str(),
                     static_cast<unsigned long long>(r.seed), r.description.c_str(), s.maps,
                     fnRate(s.tol0), fpRate(s.tol0), fnRate(s.tol1), fpRate(s.tol1),
@@ -481,7 +492,7 @@ int main(int argc, char** argv) {
                     s.forgotten_cells, s.obstacles_in_view, s.obstacles_missed_strict,
                     s.obstacles_missed_lenient, s.detection.frames, s.detection.precision(),
                     s.detection.recall(), s.detection.accepted_false, tu.pitch_bias, tu.pitch_rms,
-                    tr.pitch_bias, tr.pitch_rms, stuck(s));
+                    tr.pitch_bias, tr.pitch_rms, stuck(s), stuckTruth(s));
       scene_lines.push_back(line);
     }
   }
@@ -497,7 +508,7 @@ int main(int argc, char** argv) {
            "no_robot_segment,forgotten_cells,obstacles_in_view,obstacles_missed_strict,"
            "obstacles_missed_lenient,detector_frames,detector_precision,detector_recall,"
            "detector_false_obstacles,pitch_error_bias_deg,pitch_error_rms_deg,"
-           "reported_pitch_error_bias_deg,reported_pitch_error_rms_deg,stuck\n";
+           "reported_pitch_error_bias_deg,reported_pitch_error_rms_deg,stuck,stuck_truth\n";
     for (const std::string& l : scene_lines)
       csv << l << "\n";
   }
@@ -520,7 +531,7 @@ int main(int argc, char** argv) {
         "FN local tol 1 | FP local tol 1 | maps without robot segment | maps stuck (reachable safe "
         "ground < "
      << run.scoring.stuck_area
-     << " m^2) | forgotten obstacle cells | "
+     << " m^2; in brackets the ground truth's, a check: 0) | forgotten obstacle cells | "
         "obstacles missed (strict / after "
      << run.scoring.obstacle_lenient_frames
      << " frames) / in view |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -562,6 +573,7 @@ int main(int argc, char** argv) {
     const Stat cov = stat(c, coverage, true);
     const Stat seg = stat(c, noSegment);
     const Stat stk = stat(c, stuck);
+    const Stat stk_truth = stat(c, stuckTruth);
     ds::SceneScore total;
     for (const ds::SceneScore& s : c.scenes)
       total += s;
@@ -611,9 +623,10 @@ int main(int argc, char** argv) {
     }
     md << "| " << c.condition << " | " << c.variant << " | " << c.scenes.size() << " | " << pct(fn0)
        << " | " << pct(fn1) << " | " << pct(fp0) << " | " << pct(fp1) << " | " << pct(cov) << " | "
-       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << pct(stk) << " | "
-       << total.forgotten_cells << " | " << total.obstacles_missed_strict << " / "
-       << total.obstacles_missed_lenient << " / " << total.obstacles_in_view << " |\n";
+       << pct(lfn) << " | " << pct(lfp) << " | " << pct(seg) << " | " << pct(stk) << " ("
+       << truthPct(stk_truth) << ") | " << total.forgotten_cells << " | "
+       << total.obstacles_missed_strict << " / " << total.obstacles_missed_lenient << " / "
+       << total.obstacles_in_view << " |\n";
     j.open('{');
     j.kv("condition", c.condition)
         .kv("variant", c.variant)
@@ -627,6 +640,7 @@ int main(int argc, char** argv) {
     jsonStat(j, "coverage", cov);
     jsonStat(j, "maps_without_robot_segment", seg);
     jsonStat(j, "maps_stuck", stk);
+    jsonStat(j, "maps_stuck_truth", stk_truth);
     j.kv("forgotten_cells", total.forgotten_cells).kv("forgotten_events", total.forgotten_events);
     j.kv("obstacles", total.obstacles).kv("obstacles_in_view", total.obstacles_in_view);
     j.kv("obstacles_missed_strict", total.obstacles_missed_strict);

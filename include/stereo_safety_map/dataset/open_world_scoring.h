@@ -108,8 +108,10 @@ struct SceneScore {
   int maps = 0;
   int maps_after_grace = 0;
   int maps_without_robot_segment = 0;  ///< of those after the grace time
-  /// Maps after the grace time in which the reachable safe area is below stuck_area.
+  /// Maps after the grace time in which the reachable safe area is below stuck_area; and the
+  /// same asked of the ground truth at the true robot position (a check of the scenes: 0).
   int maps_stuck = 0;
+  int maps_stuck_truth = 0;
   int forgotten_events = 0;          ///< obstacle cells Non-ground -> safe
   int forgotten_cells = 0;           ///< distinct map cells forgotten at least once
   int obstacles = 0;                 ///< qualifying obstacles in the scene
@@ -217,6 +219,7 @@ class OpenWorldScorer {
   std::vector<HazardClass> classes_;
   std::vector<std::uint8_t> seen_;         // per GT cell: ground seen by the camera
   std::vector<std::uint8_t> unseen_;       // per map cell of the scored map: never seen (stuck)
+  SafetyMap truth_map_;                    // the ground truth's labels as a map (stuck check)
   std::vector<std::int32_t> obstacle_of_;  // per GT cell: index into obstacles_ (the kept
                                            // ones), -1 none
   std::vector<std::uint8_t> in_view_now_;  // per obstacle: in view within R_max, last frame
