@@ -67,8 +67,8 @@ struct OpenWorldScoringConfig {
   double segment_grace_s = 2.0;
   /// A map after the grace time is "stuck" when the safe ground reachable from the robot's
   /// footprint (reachableSafeArea with footprint_radius) is smaller than this [m^2]: 1 m^2 is
-  /// about one wheelchair length of travel in any direction. The procedural trajectories always
-  /// leave the chair free ground around it, so in the ground truth no map is stuck.
+  /// about one wheelchair length of travel in any direction. The ground truth asked the same is
+  /// never stuck (maps_stuck_truth 0 on the report split, twentieth session).
   double stuck_area = 1.0;
   double footprint_radius = 0.35;  ///< [m], as GroundSegmentationConfig::footprint_radius
 
@@ -155,7 +155,9 @@ struct SceneScore {
 /// every safe cell 8-connected to them through safe cells. `unseen` (optional, one entry per map
 /// cell): 1 where the camera never saw the cell's ground; an Unknown or Unexamined cell there
 /// may be passed through (not counted): no map can know it (the blind zone in front of a chair
-/// at rest). Non-ground never is. 0 when the footprint has no passable cell.
+/// at rest). Non-ground never is. 0 when the footprint has no passable cell. Potential
+/// drop-off edges (SafetyMap::drop_off) count as safe here although the cost table makes them
+/// lethal: the measure is a lower bound on how often the chair is stuck.
 double reachableSafeArea(const SafetyMap& map, double footprint_radius,
                          const std::vector<std::uint8_t>* unseen = nullptr);
 
