@@ -241,6 +241,15 @@ ParamFieldList<D> makeDisparityFields() {
       .doc(
           "smaller surfaces are removed (002 gives none; scale with the image area; 200 leaves "
           "low-texture ground too sparse).");
+  l.add("coarse_fill_levels", &D::coarse_fill_levels)
+      .closed(0, 3)
+      .live(kFilter)
+      .doc(
+          "multi-scale fill: 0 = off; k matches the pair shrunk 2x (with k - 1 coarser levels) "
+          "through every step above and fills, with its doubled disparities, the pixels the "
+          "full-resolution output left invalid, unless a valid reading in the 2 x 2 block "
+          "disagrees or one within block_size px is nearer (pale floors; 000 Sec. III's matcher "
+          "was multi-scale, the rule is ours).");
   l.setValidator([](const D& c) { return validateDisparityParameters(c); });
   return l;
 }
@@ -567,6 +576,7 @@ std::string validateDisparityParameters(const DisparityPipelineConfig& c) {
                0.0, 1.0);
   r.openClosed("spike_max_difference", c.spike_removal.max_difference, 0.0, 256.0);
   r.closed("spike_min_region_size", c.spike_removal.min_region_size, 1, 1000000);
+  r.closed("coarse_fill_levels", c.coarse_fill_levels, 0, 3);
   if (!r.error().empty()) return r.error();
   return toParameterNames(c.validate());
 }

@@ -94,6 +94,8 @@ const char* disparityStepName(DisparityStep step) {
       return "neighbour_consistency";
     case DisparityStep::kSpikeRemoval:
       return "spike_removal";
+    case DisparityStep::kCoarseFill:
+      return "coarse_fill";
   }
   return "unknown";
 }
@@ -141,6 +143,8 @@ std::string DisparityPipelineConfig::validate() const {
     s << "sgbm_p1 = " << sgbm_p1 << " and sgbm_p2 = " << sgbm_p2 << " must be >= 0";
   } else if (sgbm_p1 > 0 && sgbm_p2 > 0 && sgbm_p2 <= sgbm_p1) {
     s << "sgbm_p2 = " << sgbm_p2 << " must be > sgbm_p1 = " << sgbm_p1;
+  } else if (coarse_fill_levels < 0 || coarse_fill_levels > 3) {
+    s << "coarse_fill_levels = " << coarse_fill_levels << " must be in [0, 3]";
   }
   if (!s.str().empty()) return s.str();
 
@@ -439,6 +443,91 @@ BlockMatcherParams DisparityPipeline::blockMatcherParams() const {
   return p;
 }
 
+DisparityPipeline::CoarseLevel::CoarseLevel() = default;
+DisparityPipeline::CoarseLevel::CoarseLevel(const CoarseLevel&) {}
+DisparityPipeline::CoarseLevel& DisparityPipeline::CoarseLevel::operator=(const CoarseLevel&) {
+  return *this;
+}
+DisparityPipeline::CoarseLevel::~CoarseLevel() = default;
+
+DisparityPipelineConfig DisparityPipeline::coarseConfigOf(const DisparityPipelineConfig& config) {
+  DisparityPipelineConfig c = config;
+  c.coarse_fill_levels = std::max(0, config.coarse_fill_levels - 1);
+  c.min_disparity = config.min_disparity / 2;
+  // The same depth range at half the image width; OpenCV wants a multiple of 16.
+  c.num_disparities = std::max(16, (config.num_disparities / 2 + 15) / 16 * 16);
+  // spike_removal.min_region_size is kept in coarse pixels: a surface must cover 4x the area
+  // to be kept, since a coarse mismatch is twice as large and blobs of them are what the
+  // coarse level gets wrong on a pale floor (dev split, docs/evaluation.md).
+  c.debug = false;
+  c.parallel_left_right = false;  // one helper thread per pipeline: the fine level's
+  if (c.left_right_mode == LeftRightMode::kHalfResolution) c.left_right_mode = LeftRightMode::kFull;
+  return c;
+}
+
+int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right_grey,
+                                  cv::Mat* disparity, std::string* error) {
+  const DisparityPipelineConfig cc = coarseConfigOf(config_);
+  const cv::Size half(left_grey.cols / 2, left_grey.rows / 2);
+  if (half.width <= cc.min_disparity + cc.num_disparities + cc.block_size ||
+      half.height <= cc.block_size) {
+    return 0;  // too small to match at the coarse level: nothing to fill (documented)
+  }
+  if (!coarse_.pipeline) coarse_.pipeline = std::make_unique<DisparityPipeline>();
+  coarse_.pipeline->setConfig(cc);
+  cv::resize(left_grey, coarse_.left, half, 0.0, 0.0, cv::INTER_AREA);
+  cv::resize(right_grey, coarse_.right, half, 0.0, 0.0, cv::INTER_AREA);
+  std::string coarse_error;
+  if (!coarse_.pipeline->compute(coarse_.left, coarse_.right, &coarse_.disparity, nullptr,
+                                 &coarse_error)) {
+    if (error != nullptr) *error = "coarse fill level: " + coarse_error;
+    return -1;
+  }
+  // A valid full-resolution reading further than this from the coarse one vetoes its block: the
+  // left-right check's tolerance plus one pixel for the coarse level's resolution.
+  const float veto = static_cast<float>(config_.left_right.max_difference) + 1.0f;
+  // Nothing is filled behind a nearer full-resolution reading within the coarse window's reach
+  // (block_size full-resolution pixels each way): block matching fattens the surface that
+  // dominates a window, so at the thin edge of a table top or a step the coarse level gives
+  // the floor behind it, and the rays of those points would carve the nearer surface's voxels
+  // free. nearest_ holds the largest valid full-resolution disparity around each pixel.
+  const int reach = config_.block_size;
+  cv::dilate(*disparity, coarse_.nearest,
+             cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach + 1, 2 * reach + 1)));
+  int filled = 0;
+  for (int cy = 0; cy < half.height; ++cy) {
+    const float* c = coarse_.disparity.ptr<float>(cy);
+    float* rows[2] = {disparity->ptr<float>(2 * cy), disparity->ptr<float>(2 * cy + 1)};
+    for (int cx = 0; cx < half.width; ++cx) {
+      if (!(c[cx] > 0.0f)) continue;
+      const float v = 2.0f * c[cx];
+      bool vetoed = false;
+      int invalid = 0;
+      for (float* r : rows) {
+        for (int x = 2 * cx; x < 2 * cx + 2; ++x) {
+          if (r[x] > 0.0f) {
+            vetoed = vetoed || std::fabs(r[x] - v) > veto;
+          } else {
+            ++invalid;
+          }
+        }
+      }
+      for (int y = 2 * cy; y < 2 * cy + 2 && !vetoed; ++y) {
+        const float* n = coarse_.nearest.ptr<float>(y);
+        vetoed = n[2 * cx] > v + veto || n[2 * cx + 1] > v + veto;
+      }
+      if (vetoed || invalid == 0) continue;
+      for (float* r : rows) {
+        for (int x = 2 * cx; x < 2 * cx + 2; ++x) {
+          if (!(r[x] > 0.0f)) r[x] = v;
+        }
+      }
+      filled += invalid;
+    }
+  }
+  return filled;
+}
+
 void DisparityPipeline::markRemoved(const cv::Mat& disparity, DisparityRemoval reason) {
   for (int y = 0; y < disparity.rows; ++y) {
     const float* d = disparity.ptr<float>(y);
@@ -715,6 +804,29 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
         !run_step(DisparityStep::kSpikeRemoval, DisparityRemoval::kSpike,
                   [&] { return filterSpikes(config_.spike_removal, &disparity, &workspace_); })) {
       return fail("spike removal rejected its input");
+    }
+
+    // --- 6. coarse fill (multi-scale, 000 Sec. III; the rule is ours).
+    if (config_.coarse_fill_levels > 0) {
+      DisparityStepStats& cf = st.step(DisparityStep::kCoarseFill);
+      const Clock::time_point t0 = Clock::now();
+      std::string coarse_error;
+      const int filled = coarseFill(*left_grey, *right_grey, &disparity, &coarse_error);
+      if (filled < 0) return fail(coarse_error);
+      cf.ran = true;
+      cf.ms = msSince(t0);
+      cf.valid_before = valid;
+      valid += filled;
+      cf.valid_after = valid;
+      if (config_.debug && filled > 0) {
+        for (int y = 0; y < size.height; ++y) {
+          const float* d = disparity.ptr<float>(y);
+          std::uint8_t* r = removal_.ptr<std::uint8_t>(y);
+          for (int x = 0; x < size.width; ++x) {
+            if (d[x] > 0.0f) r[x] = static_cast<std::uint8_t>(DisparityRemoval::kValid);
+          }
+        }
+      }
     }
 
     st.valid = valid;

@@ -56,6 +56,49 @@ std::string describe(const ProceduralScene& s) {
   return os.str();
 }
 
+/// Development picture of a disparity against the rendered depth of the same left image:
+/// PREFIX_disparity.txt (per band of 40 image rows: valid readings with a true depth, pixels
+/// with one, readings more than 1 and 3 px off, median |error|) and PREFIX_disparity_error.png
+/// (green within 0.5 px, yellow within 1 px, red too large = too near, blue too small).
+void writeDisparityError(const cv::Mat& d, const StereoCameraModel& cam, const cv::Mat& depth,
+                         const std::string& prefix) {
+  if (d.empty() || d.size() != depth.size() || d.type() != CV_32FC1) return;
+  std::ofstream dt(prefix + "_disparity.txt");
+  dt << "# rows valid truth_finite err>1px err>3px median|err| (bands of 40 rows)\n";
+  cv::Mat err_img(d.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+  std::vector<float> errs;
+  for (int y0 = 0; y0 < d.rows; y0 += 40) {
+    int valid = 0, finite = 0, e1 = 0, e3 = 0;
+    errs.clear();
+    for (int y = y0; y < std::min(d.rows, y0 + 40); ++y) {
+      for (int x = 0; x < d.cols; ++x) {
+        const float z = depth.at<float>(y, x);
+        const bool has_truth = std::isfinite(z) && z > 0.0f;
+        finite += has_truth;
+        const float v = d.at<float>(y, x);
+        if (!(v > 0.0f) || !has_truth) continue;
+        ++valid;
+        const float e = v - static_cast<float>(cam.disparityFromDepth(z));
+        errs.push_back(std::fabs(e));
+        e1 += std::fabs(e) > 1.0f;
+        e3 += std::fabs(e) > 3.0f;
+        err_img.at<cv::Vec3b>(y, x) = std::fabs(e) <= 0.5f   ? cv::Vec3b(0, 160, 0)
+                                      : std::fabs(e) <= 1.0f ? cv::Vec3b(0, 255, 255)
+                                      : e > 0.0f             ? cv::Vec3b(0, 0, 255)
+                                                             : cv::Vec3b(255, 0, 0);
+      }
+    }
+    float med = 0.0f;
+    if (!errs.empty()) {
+      std::nth_element(errs.begin(), errs.begin() + errs.size() / 2, errs.end());
+      med = errs[errs.size() / 2];
+    }
+    dt << y0 << "-" << std::min(d.rows, y0 + 40) << " " << valid << " " << finite << " " << e1
+       << " " << e3 << " " << med << "\n";
+  }
+  cv::imwrite(prefix + "_disparity_error.png", err_img);
+}
+
 }  // namespace
 
 SafetyMap mapInWorld(const SafetyMap& map, const Eigen::Isometry2d& T_world_odom,
@@ -302,6 +345,15 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
                 cells_csv << line;
               }
             }
+          }
+          // The disparity this variant mapped against the rendered depth (for development: how
+          // many readings are wrong, and by how much, in which image rows).
+          {
+            const StereoFrameProcessor& src =
+                k == 0 || variants[k].own_disparity ? p : *processors[0];
+            writeDisparityError(src.disparity(), src.disparityCamera(), depth,
+                                options.image_dir + "/" + name);
+            cv::imwrite(options.image_dir + "/" + name + "_left.png", left);
           }
           cv::imwrite(
               options.image_dir + "/" + name + ".png",

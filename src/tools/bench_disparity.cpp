@@ -157,6 +157,11 @@ int main(int argc, char** argv) {
   DisparityPipelineConfig bm;  // defaults: block matching, every filter on
   benchPipeline("Block matching + all filters", bm, scene, repetitions);
 
+  DisparityPipelineConfig coarse = bm;  // the multi-scale fill (off by default)
+  coarse.coarse_fill_levels = 1;
+  benchPipeline("\nBlock matching + all filters + coarse_fill_levels 1", coarse, scene,
+                repetitions);
+
   DisparityPipelineConfig sgbm = bm;
   sgbm.matcher = stereo_safety_map::StereoMatcherType::kSemiGlobal;
   sgbm.block_size = 5;

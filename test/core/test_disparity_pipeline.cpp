@@ -631,5 +631,165 @@ TEST(DisparityPipeline, DebugImageColoursEachRemovalReason) {
   }
 }
 
+// ------------------------------------------------------------------------------------------------
+// coarse_fill_levels (multi-scale fill, issue 15 "low texture"): a pale surface with weak, smooth
+// texture under sensor noise, as the open-world scenes' polished / concrete floors.
+
+/// Smooth texture: Gaussian noise blurred with `blur` px and scaled to `contrast` grey levels
+/// (standard deviation) around 128.
+cv::Mat weakTexture(std::uint64_t seed, double blur, double contrast) {
+  cv::Mat f(kRows, kTextureCols, CV_32FC1);
+  cv::RNG rng(seed);
+  rng.fill(f, cv::RNG::NORMAL, 0.0, 1.0);
+  cv::GaussianBlur(f, f, cv::Size(), blur);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(f, mean, sd);
+  cv::Mat t;
+  f.convertTo(t, CV_8UC1, contrast / sd[0], 128.0 - mean[0] * contrast / sd[0]);
+  return t;
+}
+
+/// Independent sensor noise of `sigma` grey levels on each image.
+void addNoise(Scene* s, double sigma, std::uint64_t seed) {
+  cv::RNG rng(seed);
+  for (cv::Mat* m : {&s->left, &s->right}) {
+    cv::Mat n(m->size(), CV_16SC1);
+    rng.fill(n, cv::RNG::NORMAL, 0.0, sigma);
+    cv::Mat sum;
+    cv::add(*m, n, sum, cv::noArray(), CV_16SC1);
+    sum.convertTo(*m, CV_8UC1);
+  }
+}
+
+TEST(DisparityPipelineConfig, CoarseFillLevelsAreChecked) {
+  DisparityPipelineConfig c;
+  EXPECT_EQ(c.coarse_fill_levels, 0);  // off by default
+  c.coarse_fill_levels = 4;
+  EXPECT_NE(c.validate().find("coarse_fill_levels"), std::string::npos) << c.validate();
+  c.coarse_fill_levels = -1;
+  EXPECT_NE(c.validate().find("coarse_fill_levels"), std::string::npos) << c.validate();
+  c.coarse_fill_levels = 2;
+  EXPECT_EQ(c.validate(), "");
+}
+
+TEST(DisparityPipeline, CoarseFillFindsAWeakSmoothTextureUnderNoise) {
+  Scene scene = render({Layer{cv::Rect(0, 0, kTextureCols, kRows), 20, weakTexture(7, 3.0, 5.0)}});
+  addNoise(&scene, 3.0, 11);
+
+  DisparityPipelineConfig config;
+  DisparityPipeline fine(config);
+  cv::Mat fine_disparity;
+  DisparityStats fine_stats;
+  std::string error;
+  ASSERT_TRUE(fine.compute(scene.left, scene.right, &fine_disparity, &fine_stats, &error)) << error;
+  EXPECT_FALSE(fine_stats.step(DisparityStep::kCoarseFill).ran);
+
+  config.coarse_fill_levels = 1;
+  DisparityPipeline multi(config);
+  cv::Mat disparity;
+  DisparityStats stats;
+  ASSERT_TRUE(multi.compute(scene.left, scene.right, &disparity, &stats, &error)) << error;
+  const RoiCounts f = count(fine_disparity, scene.truth, kMatchable);
+  const RoiCounts m = count(disparity, scene.truth, kMatchable);
+  std::printf(
+      "weak texture under noise: fine %d valid (%d wrong), coarse fill %d (%d wrong) of %d\n",
+      f.valid, f.wrong, m.valid, m.wrong, m.total);
+  // The full-resolution readings are kept as they were; the fill adds many, nearly all right.
+  for (int y = 0; y < kRows; ++y) {
+    for (int x = 0; x < kCols; ++x) {
+      const float v = fine_disparity.at<float>(y, x);
+      if (isValidDisparity(v)) ASSERT_EQ(disparity.at<float>(y, x), v) << x << "," << y;
+    }
+  }
+  EXPECT_LT(f.valid, m.total / 4);
+  EXPECT_GT(m.valid, 2 * f.valid);
+  EXPECT_GT(m.valid, m.total / 2);
+  EXPECT_LT(m.wrong, m.valid / 20);
+  const DisparityStepStats& cf = stats.step(DisparityStep::kCoarseFill);
+  EXPECT_TRUE(cf.ran);
+  EXPECT_EQ(cf.valid_before, stats.step(DisparityStep::kSpikeRemoval).valid_after);
+  EXPECT_EQ(cf.valid_after, stats.valid);
+  EXPECT_EQ(stats.valid, countValidDisparities(disparity));
+}
+
+TEST(DisparityPipeline, CoarseFillKeepsAStepAJump) {
+  // A depth step along the image column: the upper half at disparity 12, the lower at 24, both
+  // with the weak texture under noise. The fill must give one of the two, never a slope between.
+  Scene scene = render(
+      {Layer{cv::Rect(0, 0, kTextureCols, kRows / 2), 12, weakTexture(8, 3.0, 5.0)},
+       Layer{cv::Rect(0, kRows / 2, kTextureCols, kRows / 2), 24, weakTexture(9, 3.0, 5.0)}});
+  addNoise(&scene, 3.0, 12);
+  DisparityPipelineConfig config;
+  config.coarse_fill_levels = 1;
+  DisparityPipeline pipeline(config);
+  cv::Mat disparity;
+  std::string error;
+  ASSERT_TRUE(pipeline.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  int valid = 0, between = 0;
+  for (int y = kMatchable.y; y < kMatchable.br().y; ++y) {
+    for (int x = kMatchable.x; x < kMatchable.br().x; ++x) {
+      const float v = disparity.at<float>(y, x);
+      if (!isValidDisparity(v)) continue;
+      ++valid;
+      between += v > 14.0f && v < 22.0f;
+    }
+  }
+  std::printf("step: %d valid, %d between the two surfaces\n", valid, between);
+  EXPECT_GT(valid, kMatchable.area() / 2);
+  EXPECT_LE(between, valid / 200);
+}
+
+TEST(DisparityPipeline, CoarseFillPutsNothingBehindANearThinEdge) {
+  // The edge of a table top: a strip 6 rows high, well textured, at disparity 30 in front of a
+  // pale far surface at 12. The coarse window fattens the far surface over the strip's rows; a
+  // far reading just above or below the strip would cast a ray through the table top.
+  Scene scene = render({Layer{cv::Rect(0, 0, kTextureCols, kRows), 12, weakTexture(10, 3.0, 5.0)},
+                        Layer{cv::Rect(0, 117, kTextureCols, 6), 30, randomDots(4)}});
+  addNoise(&scene, 3.0, 13);
+  DisparityPipelineConfig config;
+  DisparityPipeline fine(config);
+  cv::Mat fine_disparity, disparity;
+  std::string error;
+  ASSERT_TRUE(fine.compute(scene.left, scene.right, &fine_disparity, nullptr, &error)) << error;
+  config.coarse_fill_levels = 1;
+  DisparityPipeline multi(config);
+  ASSERT_TRUE(multi.compute(scene.left, scene.right, &disparity, nullptr, &error)) << error;
+  int strip = 0, filled = 0;
+  for (int y = kMatchable.y; y < kMatchable.br().y; ++y) {
+    for (int x = kMatchable.x; x < kMatchable.br().x; ++x) {
+      strip += y >= 117 && y < 123 && std::fabs(fine_disparity.at<float>(y, x) - 30.0f) <= 1.0f;
+      const float v = disparity.at<float>(y, x);
+      if (isValidDisparity(fine_disparity.at<float>(y, x)) || !isValidDisparity(v)) continue;
+      ++filled;
+      // Every filled reading: no full-resolution reading within block_size px is nearer.
+      const cv::Rect around = cv::Rect(x - config.block_size, y - config.block_size,
+                                       2 * config.block_size + 1, 2 * config.block_size + 1) &
+                              cv::Rect(0, 0, kCols, kRows);
+      double nearest = 0.0;
+      cv::minMaxLoc(fine_disparity(around), nullptr, &nearest);
+      ASSERT_LE(nearest, v + config.left_right.max_difference + 1.0) << x << "," << y;
+    }
+  }
+  EXPECT_GT(strip, kMatchable.width * 3);    // the strip is seen at full resolution
+  EXPECT_GT(filled, kMatchable.area() / 2);  // and the far surface filled away from it
+}
+
+TEST(DisparityPipeline, CoarseFillIsSkippedWhenTheShrunkPairIsTooSmall) {
+  // 48 columns: enough for 16 disparities and a 9-pixel window, not at half size (24 columns).
+  cv::Mat left = randomDots(5)(cv::Rect(0, 0, 48, 40)).clone();
+  cv::Mat right = left.clone();
+  DisparityPipelineConfig config;
+  config.num_disparities = 16;
+  config.coarse_fill_levels = 2;
+  DisparityPipeline pipeline(config);
+  cv::Mat disparity;
+  DisparityStats stats;
+  std::string error;
+  ASSERT_TRUE(pipeline.compute(left, right, &disparity, &stats, &error)) << error;
+  EXPECT_TRUE(stats.step(DisparityStep::kCoarseFill).ran);
+  EXPECT_EQ(stats.step(DisparityStep::kCoarseFill).valid_after,
+            stats.step(DisparityStep::kCoarseFill).valid_before);
+}
+
 }  // namespace
 }  // namespace stereo_safety_map

@@ -15,7 +15,10 @@
 //     mirrored pair is matched by a second matcher with the same settings;
 //  4. neighbour consistency: drop readings unlike their neighbours (000, Sec. III);
 //  5. spike removal: drop small continuous-disparity surfaces (002, Sec. 4.2); last, so that it
-//     also removes fragments the earlier steps left behind.
+//     also removes fragments the earlier steps left behind;
+//  6. coarse fill (multi-scale, off by default): the same pipeline on the pair shrunk 2x fills
+//     the pixels the full-resolution steps left invalid (000 Sec. III used a multi-scale
+//     correlation matcher; the fill rule is ours, see DisparityPipelineConfig::coarse_fill_levels).
 #pragma once
 
 #include "stereo_safety_map/core/disparity_block_matcher.h"
@@ -27,6 +30,7 @@
 #include <array>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -98,6 +102,24 @@ struct DisparityPipelineConfig {
   /// time; the latency drops when a second core is free. Ours, not in the papers.
   bool parallel_left_right = false;
 
+  /// Multi-scale fill (000 Sec. III: its matcher was a multi-scale correlation matcher; the rule
+  /// is ours, issue 15 "low texture"): 0 = off; k >= 1 runs this pipeline, every step with the
+  /// same settings (num_disparities halved and rounded up to a multiple of 16, min_disparity
+  /// halved, the window sides unchanged, so twice as wide in the scene), on the pair shrunk 2x
+  /// by area averaging, itself with k - 1 coarser levels, and
+  /// writes its disparities, doubled, into the 2 x 2 full-resolution pixels each covers where
+  /// the full-resolution output is invalid. Averaging halves the image noise and the wider
+  /// window sees the weak, smooth texture of a pale floor that a 9 x 9 window under noise cannot
+  /// match. A 2 x 2 block is left alone when a valid full-resolution disparity in it differs
+  /// from the coarse one by more than left_right.max_difference + 1 px (the coarse level's
+  /// resolution), or when one within block_size px of it is larger (nearer) by more than that:
+  /// the full-resolution reading wins, and nothing is filled behind the thin edge of a table
+  /// top or a step that the coarse window fattens the far surface over (the rays of such points
+  /// would carve the nearer surface's voxels free). Block matching picks one disparity per
+  /// window, so a step stays a jump. The coarse level keeps spike_min_region_size in its own
+  /// pixels (4x the area). Does nothing when the shrunk pair is too small to match.
+  int coarse_fill_levels = 0;
+
   std::string validate() const;
 };
 
@@ -112,8 +134,9 @@ enum class DisparityStep : int {
   kLeftRight,       ///< left-right consistency check
   kNeighbourConsistency,
   kSpikeRemoval,
+  kCoarseFill,  ///< coarse_fill_levels: valid_after - valid_before pixels filled
 };
-constexpr int kNumDisparitySteps = 8;
+constexpr int kNumDisparitySteps = 9;
 const char* disparityStepName(DisparityStep step);
 
 struct DisparityStepStats {
@@ -246,6 +269,12 @@ class DisparityPipeline {
   static MatcherKey halfKeyOf(const MatcherKey& key);
   BlockMatcherParams blockMatcherParams() const;  // the one-volume matcher's, from the config
   void markRemoved(const cv::Mat& disparity, DisparityRemoval reason);
+  /// Step 6: fills *disparity from the coarse level (coarse_fill_levels >= 1); returns the
+  /// pixels filled, or -1 with *error set when the coarse pipeline failed.
+  int coarseFill(const cv::Mat& left_grey, const cv::Mat& right_grey, cv::Mat* disparity,
+                 std::string* error);
+  /// The coarse level's configuration (coarse_fill_levels >= 1).
+  static DisparityPipelineConfig coarseConfigOf(const DisparityPipelineConfig& config);
   void renderDebugImage(const cv::Mat& disparity);
 
   DisparityPipelineConfig config_;
@@ -270,7 +299,19 @@ class DisparityPipeline {
   cv::Mat plain_disparity_, unchecked_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
-  LeftRightBlockMatcher block_matcher_;  ///< left and right disparities from one cost volume
+  LeftRightBlockMatcher block_matcher_;
+
+  /// The coarse level of coarse_fill_levels, created at its first use; copies start without one.
+  struct CoarseLevel {
+    CoarseLevel();
+    CoarseLevel(const CoarseLevel&);
+    CoarseLevel& operator=(const CoarseLevel&);
+    ~CoarseLevel();
+    std::unique_ptr<DisparityPipeline> pipeline;
+    cv::Mat left, right, disparity;
+    cv::Mat nearest;  ///< largest full-resolution disparity within block_size px
+  };
+  CoarseLevel coarse_;  ///< left and right disparities from one cost volume
 
   // parallel_left_right: the helper thread and the arguments of its task.
   detail::TaskThread task_;
