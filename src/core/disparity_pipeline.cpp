@@ -492,8 +492,11 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
   // the floor behind it, and the rays of those points would carve the nearer surface's voxels
   // free. nearest_ holds the largest valid full-resolution disparity around each pixel.
   const int reach = config_.block_size;
-  cv::dilate(*disparity, coarse_.nearest,
-             cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach + 1, 2 * reach + 1)));
+  if (coarse_.reach_kernel.rows != 2 * reach + 1) {  // built once per block size
+    coarse_.reach_kernel =
+        cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach + 1, 2 * reach + 1));
+  }
+  cv::dilate(*disparity, coarse_.nearest, coarse_.reach_kernel);
   int filled = 0;
   for (int cy = 0; cy < half.height; ++cy) {
     const float* c = coarse_.disparity.ptr<float>(cy);

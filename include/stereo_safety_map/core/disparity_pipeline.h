@@ -309,7 +309,8 @@ class DisparityPipeline {
     ~CoarseLevel();
     std::unique_ptr<DisparityPipeline> pipeline;
     cv::Mat left, right, disparity;
-    cv::Mat nearest;  ///< largest full-resolution disparity within block_size px
+    cv::Mat nearest;       ///< largest full-resolution disparity within block_size px
+    cv::Mat reach_kernel;  ///< the (2 block_size + 1)^2 rectangle of that dilation
   };
   CoarseLevel coarse_;  ///< left and right disparities from one cost volume
 
