@@ -490,7 +490,7 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
   // (block_size full-resolution pixels each way): block matching fattens the surface that
   // dominates a window, so at the thin edge of a table top or a step the coarse level gives
   // the floor behind it, and the rays of those points would carve the nearer surface's voxels
-  // free. nearest_ holds the largest valid full-resolution disparity around each pixel.
+  // free. coarse_.nearest holds the largest valid full-resolution disparity around each pixel.
   const int reach = config_.block_size;
   if (coarse_.reach_kernel.rows != 2 * reach + 1) {  // built once per block size
     coarse_.reach_kernel =
