@@ -106,9 +106,9 @@ struct DisparityPipelineConfig {
   /// is ours, issue 15 "low texture"): 0 = off; k >= 1 runs this pipeline, every step with the
   /// same settings (num_disparities halved and rounded up to a multiple of 16, min_disparity
   /// halved, the window sides unchanged, so twice as wide in the scene), on the pair shrunk 2x
-  /// by area averaging, itself with k - 1 coarser levels, and
-  /// writes its disparities, doubled, into the 2 x 2 full-resolution pixels each covers where
-  /// the full-resolution output is invalid. Averaging halves the image noise and the wider
+  /// by area averaging, itself with k - 1 coarser levels, and writes its disparities, doubled,
+  /// into the 2 x 2 full-resolution pixels each covers where the full-resolution output is
+  /// invalid. Averaging halves the image noise and the wider
   /// window sees the weak, smooth texture of a pale floor that a 9 x 9 window under noise cannot
   /// match. A 2 x 2 block is left alone when a valid full-resolution disparity in it differs
   /// from the coarse one by more than left_right.max_difference + 1 px (the coarse level's
@@ -299,7 +299,7 @@ class DisparityPipeline {
   cv::Mat plain_disparity_, unchecked_disparity_;
   cv::Mat removal_, debug_image_;
   DisparityFilterWorkspace workspace_;
-  LeftRightBlockMatcher block_matcher_;
+  LeftRightBlockMatcher block_matcher_;  ///< left and right disparities from one cost volume
 
   /// The coarse level of coarse_fill_levels, created at its first use; copies start without one.
   struct CoarseLevel {
@@ -312,7 +312,7 @@ class DisparityPipeline {
     cv::Mat nearest;       ///< largest full-resolution disparity within block_size px
     cv::Mat reach_kernel;  ///< the (2 block_size + 1)^2 rectangle of that dilation
   };
-  CoarseLevel coarse_;  ///< left and right disparities from one cost volume
+  CoarseLevel coarse_;
 
   // parallel_left_right: the helper thread and the arguments of its task.
   detail::TaskThread task_;
