@@ -698,7 +698,9 @@ TEST(DisparityPipeline, CoarseFillFindsAWeakSmoothTextureUnderNoise) {
   for (int y = 0; y < kRows; ++y) {
     for (int x = 0; x < kCols; ++x) {
       const float v = fine_disparity.at<float>(y, x);
-      if (isValidDisparity(v)) ASSERT_EQ(disparity.at<float>(y, x), v) << x << "," << y;
+      if (isValidDisparity(v)) {
+        ASSERT_EQ(disparity.at<float>(y, x), v) << x << "," << y;
+      }
     }
   }
   EXPECT_LT(f.valid, m.total / 4);
