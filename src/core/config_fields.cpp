@@ -250,6 +250,13 @@ ParamFieldList<D> makeDisparityFields() {
           "full-resolution output left invalid, unless a valid reading in the 2 x 2 block "
           "disagrees or one within block_size px is nearer (pale floors; 000 Sec. III's matcher "
           "was multi-scale, the rule is ours).");
+  l.add("coarse_fill_max_depth", &D::coarse_fill_max_depth)
+      .closed(0, 100)
+      .unit("m")
+      .live(kFilter)
+      .doc(
+          "the coarse fill's reach: coarse readings farther from the camera fill nothing, since "
+          "the coarse window smooths a step's height over its rows (ours; 0 = any range).");
   l.setValidator([](const D& c) { return validateDisparityParameters(c); });
   return l;
 }
@@ -577,6 +584,7 @@ std::string validateDisparityParameters(const DisparityPipelineConfig& c) {
   r.openClosed("spike_max_difference", c.spike_removal.max_difference, 0.0, 256.0);
   r.closed("spike_min_region_size", c.spike_removal.min_region_size, 1, 1000000);
   r.closed("coarse_fill_levels", c.coarse_fill_levels, 0, 3);
+  r.closed("coarse_fill_max_depth", c.coarse_fill_max_depth, 0.0, 100.0);
   if (!r.error().empty()) return r.error();
   return toParameterNames(c.validate());
 }

@@ -145,6 +145,8 @@ std::string DisparityPipelineConfig::validate() const {
     s << "sgbm_p2 = " << sgbm_p2 << " must be > sgbm_p1 = " << sgbm_p1;
   } else if (coarse_fill_levels < 0 || coarse_fill_levels > 3) {
     s << "coarse_fill_levels = " << coarse_fill_levels << " must be in [0, 3]";
+  } else if (!(coarse_fill_max_depth >= 0.0 && coarse_fill_max_depth <= 100.0)) {
+    s << "coarse_fill_max_depth = " << coarse_fill_max_depth << " must be in [0, 100] m";
   }
   if (!s.str().empty()) return s.str();
 
@@ -475,6 +477,7 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
   }
   if (!coarse_.pipeline) coarse_.pipeline = std::make_unique<DisparityPipeline>();
   coarse_.pipeline->setConfig(cc);
+  coarse_.pipeline->setFocalBaseline(0.5 * focal_baseline_);  // its disparities are halved
   cv::resize(left_grey, coarse_.left, half, 0.0, 0.0, cv::INTER_AREA);
   cv::resize(right_grey, coarse_.right, half, 0.0, 0.0, cv::INTER_AREA);
   std::string coarse_error;
@@ -492,6 +495,10 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
   // the floor behind it, and the rays of those points would carve the nearer surface's voxels
   // free. coarse_.nearest holds the largest valid full-resolution disparity around each pixel.
   const int reach = config_.block_size;
+  // DisparityPipelineConfig::coarse_fill_max_depth as a disparity of this level.
+  const float min_fill = focal_baseline_ > 0.0 && config_.coarse_fill_max_depth > 0.0
+                             ? static_cast<float>(focal_baseline_ / config_.coarse_fill_max_depth)
+                             : 0.0f;
   if (coarse_.reach_kernel.rows != 2 * reach + 1) {  // built once per block size
     coarse_.reach_kernel =
         cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach + 1, 2 * reach + 1));
@@ -504,6 +511,7 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
     for (int cx = 0; cx < half.width; ++cx) {
       if (!(c[cx] > 0.0f)) continue;
       const float v = 2.0f * c[cx];
+      if (v < min_fill) continue;  // DisparityPipelineConfig::coarse_fill_max_depth
       bool vetoed = false;
       int invalid = 0;
       for (float* r : rows) {
@@ -520,9 +528,14 @@ int DisparityPipeline::coarseFill(const cv::Mat& left_grey, const cv::Mat& right
         vetoed = n[2 * cx] > v + veto || n[2 * cx + 1] > v + veto;
       }
       if (vetoed || invalid == 0) continue;
-      for (float* r : rows) {
+      std::uint8_t* masks[2] = {coarse_mask_.ptr<std::uint8_t>(2 * cy),
+                                coarse_mask_.ptr<std::uint8_t>(2 * cy + 1)};
+      for (int k = 0; k < 2; ++k) {
         for (int x = 2 * cx; x < 2 * cx + 2; ++x) {
-          if (!(r[x] > 0.0f)) r[x] = v;
+          if (!(rows[k][x] > 0.0f)) {
+            rows[k][x] = v;
+            masks[k][x] = 255;
+          }
         }
       }
       filled += invalid;
@@ -574,8 +587,10 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
   DisparityStats local_stats;
   DisparityStats& st = stats != nullptr ? *stats : local_stats;
   st = DisparityStats();
-  auto fail = [error](const std::string& message) {
+  coarse_mask_.release();  // DisparityPipeline::coarseMask(): empty after a failure
+  auto fail = [this, error](const std::string& message) {
     if (error != nullptr) *error = message;
+    coarse_mask_.release();
     return false;
   };
 
@@ -810,7 +825,10 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     }
 
     // --- 6. coarse fill (multi-scale, 000 Sec. III; the rule is ours).
+    coarse_mask_.release();
     if (config_.coarse_fill_levels > 0) {
+      coarse_mask_.create(size, CV_8UC1);
+      coarse_mask_.setTo(0);
       DisparityStepStats& cf = st.step(DisparityStep::kCoarseFill);
       const Clock::time_point t0 = Clock::now();
       std::string coarse_error;

@@ -57,6 +57,10 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(level_slope_deg) || level_slope_deg < 0.0 || level_slope_deg > max_slope_deg) {
     return "level_slope_deg (theta_T) must be in [0, max_slope_deg] deg";
   }
+  if (!std::isfinite(slope_margin_deg) || slope_margin_deg < 0.0 ||
+      slope_margin_deg > max_slope_deg - level_slope_deg) {
+    return "slope_margin_deg must be in [0, max_slope_deg - level_slope_deg] deg";
+  }
   if (max_gap_cells < 0 || max_gap_cells > 10) return "max_gap_cells must be in [0, 10]";
   if (!std::isfinite(small_obstacle_min_rise) || small_obstacle_min_rise < 0.0 ||
       small_obstacle_min_rise > 10.0) {
@@ -447,8 +451,9 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
       small_[k] = 1;
       continue;
     }
-    if (p->slope_deg > config_.max_slope_deg) seg_state_[k] = kStNonGround;  // step 2
-    if (static_cast<int>(info.cells.size()) < config_.min_segment_cells) {   // step 3
+    // Step 2, with SafetyLabellingConfig::slope_margin_deg taken off theta_max.
+    if (p->slope_deg > config_.traversableSlope()) seg_state_[k] = kStNonGround;
+    if (static_cast<int>(info.cells.size()) < config_.min_segment_cells) {  // step 3
       seg_state_[k] = kStUnknown;
       small_[k] = 1;
     }

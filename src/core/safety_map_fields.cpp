@@ -131,6 +131,24 @@ ParamFieldList<M> makeMapperFields() {
           "points' nearest observation is more than this many times as far as the voxel "
           "below's: the upper noise tail of a floor seen from afar, over the floor seen from "
           "near (ours; 0 = 000 Sec. V-A's highest voxel). 0 or [1, 100].");
+  l.add("tail_share", &M::height_map, &HeightMapConfig::tail_share)
+      .closed(0, 1)
+      .doc(
+          "a column's highest occupied voxel that sits on another is passed over when it "
+          "received fewer than this share of the points of the voxel below (every point "
+          "counted, not 000 Sec. IV's one per frame): a noise tail is not a surface (ours; 0 = "
+          "000 Sec. V-A's highest voxel).");
+  l.add("mass_heights", &M::height_map, &HeightMapConfig::mass_heights)
+      .doc(
+          "a column's measured surface height is the mean of every point of its top voxel and "
+          "the voxels just below and above it, not of the top voxel's capped point list, which "
+          "holds only the part of a surface's noise above a voxel boundary (ours; false = 000 "
+          "Sec. IV-V).");
+  l.add("mass_bands", &M::height_map, &HeightMapConfig::mass_bands)
+      .doc(
+          "with mass_heights, a column's indexed height is the voxel its measured surface lies "
+          "in, within its occupied extent (ours; false = 000 Sec. V-A's highest occupied "
+          "voxel).");
   l.add("planning_radius", &M::segmentation, &GroundSegmentationConfig::planning_radius)
       .openClosed(0, 1000)
       .unit("m")
@@ -221,12 +239,26 @@ ParamFieldList<M> makeMapperFields() {
           "point the voxel received and weighted by their number (ours; false = 000 Sec. "
           "IV-V-B's capped closest-first lists).");
 
+  l.add("plane_mass_heights", &M::plane_fit, &PlaneFitConfig::mass_heights)
+      .doc(
+          "each voxel's list points join its segment's plane moved in z to the column's height "
+          "from every point of the surface's voxels (mass_heights) (ours; false = 000 Sec. "
+          "V-B's lists).");
+
   l.section("Labelling (000 Sec. VI, Alg. 2)");
   l.add("max_slope_deg", &M::labelling, &SafetyLabellingConfig::max_slope_deg)
       .open(0, 90)
       .unit("deg")
       .live(kStage)
       .doc("theta_max: steeper planes are Non-ground (000 Alg. 2 step 2: 10).");
+  l.add("slope_margin_deg", &M::labelling, &SafetyLabellingConfig::slope_margin_deg)
+      .closed(0, 90)
+      .unit("deg")
+      .live(kStage)
+      .doc(
+          "taken off theta_max where Alg. 2 step 2 judges a plane's slope: a least-squares plane "
+          "reads a ramp flatter than it is, so a plane measured within this margin of theta_max "
+          "is Non-ground; at most theta_max - theta_T (ours; 0 = 000).");
   l.add("level_slope_deg", &M::labelling, &SafetyLabellingConfig::level_slope_deg)
       .closedOpen(0, 90)
       .rangeText("[0, max_slope_deg]")
@@ -437,6 +469,11 @@ ParamFieldList<M> makeMapperFields() {
           "accepted estimates in the camera heading's frame: the constant part of an unreported "
           "tilt (seat load, tyres, a mount calibrated a little off), robust to a ramp or drop "
           "ahead (ours).");
+  l.add("relevel_estimate_offset", &M::relevel, &FrameLevellingConfig::estimate_offset)
+      .doc(
+          "estimate the camera's vertical offset with its tilt (true) or the tilt alone with "
+          "the camera's height kept (false): the ground seen spans 1-2 m along the heading, "
+          "over which a pitch and an offset shift the heights almost alike (ours).");
   l.add("overhang_roof", &M::overhang_roof, &OverhangRoofConfig::enabled)
       .doc(
           "a safe cell whose floor the camera sees under the top of an overhang column (a top "
@@ -573,6 +610,11 @@ ParamFieldList<StereoFrameProcessorConfig> makeProcessorFields() {
       .closed(1, 16)
       .doc("use every n-th pixel in rows and columns.");
   l.include(rowGapFillFields(), &P::row_gap_fill);
+  l.add("coarse_free_space", &P::coarse_free_space)
+      .doc(
+          "the coarse fill's readings (coarse_fill_levels) carve free space like any reading; "
+          "false: occupancy evidence alone, their rays carve nothing (ours; offline only: the "
+          "disparity nodelet publishes the merged readings).");
   l.include(landmarkStreamFields(), &P::landmark_filter);
   l.include(disparityPipelineFields(), &P::disparity);
   l.setValidator([](const P& c) { return c.validate(); });

@@ -117,6 +117,10 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.segmentation.split_steps = false;          // 000 Alg. 1: a segment is one indexed height
   c.height_map.observation_means = false;      // 000 Sec. IV: the voxels' point lists
   c.height_map.near_view_ratio = 0.0;          // 000 Sec. V-A: the highest occupied voxel
+  c.height_map.tail_share = 0.0;               // 000 Sec. V-A: the highest occupied voxel
+  c.height_map.mass_heights = false;           // 000 Sec. IV-V: the top voxel's list
+  c.height_map.mass_bands = false;             // 000 Sec. V-A: the highest occupied voxel
+  c.plane_fit.mass_heights = false;            // 000 Sec. V-B: the voxels' point lists
   c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.floor_fragments = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.robot_fragment_passage = false;  // 000 Alg. 2 step 21: num_T on both sides
@@ -129,6 +133,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
   c.labelling.measured_step_test = false;       // 000 Alg. 2 steps 15-17: planes only
   c.labelling.step_height_margin = 0.0;         // 000 Alg. 2 step 17: h_T alone
+  c.labelling.slope_margin_deg = 0.0;           // 000 Alg. 2 step 2: theta_max alone
   c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
   c.labelling.drop_off_sink = 0.0;              // 000 Sec. VI: annotation only
   c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
@@ -321,10 +326,10 @@ bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sen
 bool SafetyMapper::integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
                                   const Eigen::Isometry3f& T_fixed_sensor,
                                   const Eigen::Vector3f& robot_base_position, double stamp,
-                                  FrameResult* out) {
+                                  FrameResult* out, std::size_t first_no_carve) {
   // A non-finite stamp is no stamp.
   return integrate(points_sensor, T_fixed_sensor, robot_base_position,
-                   std::isfinite(stamp) ? stamp : kNoTime, out);
+                   std::isfinite(stamp) ? stamp : kNoTime, out, first_no_carve);
 }
 
 void SafetyMapper::observe(const std::vector<Eigen::Vector3f>& points_sensor,
@@ -370,7 +375,7 @@ std::size_t SafetyMapper::ageSafetyMap(double now) {
 bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
                              const Eigen::Isometry3f& T_fixed_sensor,
                              const Eigen::Vector3f& robot_base_position, double stamp,
-                             FrameResult* out) {
+                             FrameResult* out, std::size_t first_no_carve) {
   FrameResult local;
   FrameResult& r = out != nullptr ? *out : local;
   r = FrameResult();
@@ -415,7 +420,7 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   if (!grid_.contains(grid_.indexOf(T_frame.translation()))) {
     return skip(FrameStatus::kCameraOutsideGrid);
   }
-  r.integration = grid_.integrate(points_sensor, T_frame);
+  r.integration = grid_.integrate(points_sensor, T_frame, first_no_carve);
   // SafetyMapperConfig::overhang_roof looks from the last camera that saw something: a frame
   // whose points all failed leaves the map as it was.
   if (r.integration.points_used > 0) last_camera_ = T_frame.translation();

@@ -135,6 +135,7 @@ bool StereoFrameProcessor::processImages(const cv::Mat& left, const cv::Mat& rig
       return refuse(std::string(toString(problem)) + ": " + err);
     }
   }
+  pipeline_.setFocalBaseline(camera.fx * camera.baseline);
   if (!pipeline_.compute(left, right, &disparity_, &r.disparity, &err)) {
     return refuse("disparity: " + err);
   }
@@ -144,11 +145,23 @@ bool StereoFrameProcessor::processImages(const cv::Mat& left, const cv::Mat& rig
   // camera model (f and T in float32), so that this path and the two nodelets agree bit for bit.
   const DisparityMessageGeometry g = disparityMessageGeometry(
       camera, pipeline_.config().min_disparity, pipeline_.config().num_disparities);
+  // With coarse_free_space off the coarse fill's readings go into an image of their own
+  // (coarseDisparity()), the full-resolution ones stay in disparity_. With it on (default) the
+  // output stays merged, as the disparity nodelet publishes it, so that this path and the
+  // nodelets' (disparity -> safety map) map the same points in the same order.
+  const cv::Mat& mask = pipeline_.coarseMask();
+  if (!config_.coarse_free_space && !mask.empty() && cv::countNonZero(mask) > 0) {
+    coarse_disparity_.create(disparity_.size(), CV_32FC1);
+    coarse_disparity_.setTo(0.0f);
+    disparity_.copyTo(coarse_disparity_, mask);
+    disparity_.setTo(0.0f, mask);
+    throughDisparityMessage(g, &coarse_disparity_);
+  } else {
+    coarse_disparity_.release();
+  }
   throughDisparityMessage(g, &disparity_);
   disparity_camera_ = messageCameraModel(g, camera);
-  reprojectDisparity(gapFilled(disparity_, disparity_camera_, &r), disparity_camera_,
-                     mapper_.config().grid.min_range, mapper_.config().grid.max_range,
-                     config_.disparity_step, &points_);
+  reproject(disparity_, coarse_disparity_, disparity_camera_, &r);
   r.timings.reproject_ms = msSince(t1);
   const bool ok =
       integrate(&disparity_camera_, T_fixed_sensor, robot_base_position, stamp, &r, error);
@@ -161,7 +174,7 @@ bool StereoFrameProcessor::processDisparity(const cv::Mat& disparity,
                                             const Eigen::Isometry3f& T_fixed_sensor,
                                             const Eigen::Vector3f& robot_base_position,
                                             double stamp, StereoFrameResult* result,
-                                            std::string* error) {
+                                            std::string* error, const cv::Mat& coarse) {
   StereoFrameResult local;
   StereoFrameResult& r = result != nullptr ? *result : local;
   r = StereoFrameResult();
@@ -176,10 +189,13 @@ bool StereoFrameProcessor::processDisparity(const cv::Mat& disparity,
     setError(error, "disparity must be CV_32FC1 of the camera model's size");
     return false;
   }
+  if (!coarse.empty() && (coarse.type() != CV_32FC1 || coarse.size() != disparity.size())) {
+    setError(error, "coarse disparity must be CV_32FC1 of the disparity's size");
+    return false;
+  }
   if (disparity.data != disparity_.data) disparity_.release();
-  // The grid's depth range (000 Sec. IV ignores points outside it anyway).
-  reprojectDisparity(gapFilled(disparity, camera, &r), camera, mapper_.config().grid.min_range,
-                     mapper_.config().grid.max_range, config_.disparity_step, &points_);
+  if (coarse.data != coarse_disparity_.data) coarse_disparity_.release();
+  reproject(disparity, coarse, camera, &r);
   r.timings.reproject_ms = msSince(t0);
   const bool ok = integrate(&camera, T_fixed_sensor, robot_base_position, stamp, &r, error);
   r.timings.total_ms = msSince(t0);
@@ -195,10 +211,28 @@ bool StereoFrameProcessor::processPoints(const std::vector<Eigen::Vector3f>& poi
   r = StereoFrameResult();
   const Clock::time_point t0 = Clock::now();
   disparity_.release();
+  coarse_disparity_.release();
+  first_no_carve_ = VoxelGrid::kAllCarve;
   points_ = points_sensor;  // reused buffer: no allocation once it has grown
   const bool ok = integrate(nullptr, T_fixed_sensor, robot_base_position, stamp, &r, error);
   r.timings.total_ms = msSince(t0);
   return ok;
+}
+
+void StereoFrameProcessor::reproject(const cv::Mat& disparity, const cv::Mat& coarse,
+                                     const StereoCameraModel& camera, StereoFrameResult* r) {
+  // The grid's depth range (000 Sec. IV ignores points outside it anyway).
+  const double lo = mapper_.config().grid.min_range, hi = mapper_.config().grid.max_range;
+  reprojectDisparity(gapFilled(disparity, camera, r), camera, lo, hi, config_.disparity_step,
+                     &points_);
+  first_no_carve_ = VoxelGrid::kAllCarve;
+  if (coarse.empty()) return;
+  // The coarse fill's points after the others: they lose every voxel the others share with
+  // them (000 Sec. IV: one point per voxel and frame, the first), and carve nothing when
+  // coarse_free_space is off.
+  reprojectDisparity(coarse, camera, lo, hi, config_.disparity_step, &coarse_points_);
+  if (!config_.coarse_free_space) first_no_carve_ = points_.size();
+  points_.insert(points_.end(), coarse_points_.begin(), coarse_points_.end());
 }
 
 bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
@@ -231,8 +265,10 @@ bool StereoFrameProcessor::integrate(const StereoCameraModel* camera,
   r->points = points_.size();
   // VoxelGridConfig::neighbour_sigmas: the range error of these points (001 Sec. 4.1).
   if (camera != nullptr) mapper_.setStereoGeometry(camera->fx * camera->baseline);
-  const bool ok =
-      mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, stamp, &r->mapper);
+  // The landmark filter removes points: the coarse ones' index is lost, all carve.
+  const std::size_t no_carve = r->landmark_filter_ran ? VoxelGrid::kAllCarve : first_no_carve_;
+  const bool ok = mapper_.integrateFrame(points_, T_fixed_sensor, robot_base_position, stamp,
+                                         &r->mapper, no_carve);
   r->timings.mapper = r->mapper.timings;
   if (!ok) {
     if (r->mapper.status == FrameStatus::kStationary) refreshAtRest(robot_base_position, stamp, r);

@@ -120,6 +120,24 @@ std::string VoxelGridConfig::validate() const {
   return {};
 }
 
+namespace {
+// (1 - 1 / kHitMassWindow)^age for the hit masses' fading; 0 beyond the table (below 1e-7).
+constexpr int kFadeTableSize = 1024;
+const float* fadeTable() {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(kFadeTableSize);
+    const double keep = 1.0 - 1.0 / static_cast<double>(VoxelGrid::kHitMassWindow);
+    for (int a = 0; a < kFadeTableSize; ++a)
+      t[a] = static_cast<float>(std::pow(keep, a));
+    return t;
+  }();
+  return table.data();
+}
+inline float fadeFor(std::uint32_t age) {
+  return age < static_cast<std::uint32_t>(kFadeTableSize) ? fadeTable()[age] : 0.0f;
+}
+}  // namespace
+
 VoxelGrid::VoxelGrid(const VoxelGridConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument(err);
@@ -134,6 +152,13 @@ VoxelGrid::VoxelGrid(const VoxelGridConfig& config) : config_(config) {
   stamp_.assign(n, 0);
   point_count_.assign(n, 0);
   moments_.assign(n, VoxelMoments());
+  fadeTable();  // built once, here, so that integrate() never allocates
+  hit_mass_.assign(n, 0.0f);
+  hit_frac_.assign(n, 0.0f);
+  mass_frame_.assign(n, 0);
+  frame_hits_.assign(n, 0);
+  frame_frac_.assign(n, 0.0f);
+  hit_voxels_.assign(n, 0);
   point_storage_.resize(n * static_cast<std::size_t>(config_.point_list_capacity));
   pending_.assign(n, 0);
   touched_.assign(n, 0);
@@ -194,6 +219,9 @@ void VoxelGrid::clearVoxel(std::size_t k) {
   lop_[k] = 0;
   point_count_[k] = 0;
   moments_[k] = VoxelMoments();
+  hit_mass_[k] = 0.0f;
+  hit_frac_[k] = 0.0f;
+  mass_frame_[k] = 0;
   stamp_[k] = 0;
 }
 
@@ -201,6 +229,9 @@ void VoxelGrid::clear() {
   std::fill(lop_.begin(), lop_.end(), 0);
   std::fill(point_count_.begin(), point_count_.end(), 0);
   std::fill(moments_.begin(), moments_.end(), VoxelMoments());
+  std::fill(hit_mass_.begin(), hit_mass_.end(), 0.0f);
+  std::fill(hit_frac_.begin(), hit_frac_.end(), 0.0f);
+  std::fill(mass_frame_.begin(), mass_frame_.end(), 0);
   std::fill(stamp_.begin(), stamp_.end(), 0);
   for (OutsideEntry& e : outside_seen_)
     e.stamp = 0;
@@ -425,7 +456,7 @@ void VoxelGrid::castRay(const double a[3], const double b[3], const int e[3], bo
 // The rare path of integrate(): a point that survived the per-voxel de-duplication (or whose
 // endpoint is outside the window). Kept out of line so the per-point loop stays small.
 __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const Endpoint& ep,
-                                                      IntegrationStats& stats) {
+                                                      bool carve, IntegrationStats& stats) {
   const std::int64_t* r = ep.r;
   const bool inside = ep.inside;
   const std::size_t k = ep.k;
@@ -462,7 +493,7 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
     }
     fore_increment = -t_in <= reach_t;
   }
-  if (traceable) castRay(a, b, e, fore_increment, stats);
+  if (traceable && carve) castRay(a, b, e, fore_increment, stats);
 
   if (inside) {
     addIncrement(k, config_.incr_high);
@@ -493,7 +524,8 @@ __attribute__((noinline)) void VoxelGrid::useEndpoint(const double a[3], const E
 }
 
 IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points,
-                                      const Eigen::Isometry3f& T_fixed_sensor) {
+                                      const Eigen::Isometry3f& T_fixed_sensor,
+                                      std::size_t first_no_carve) {
   IntegrationStats stats;
   stats.points_in = points.size();
   ++frame_;
@@ -519,12 +551,18 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
   const std::uint32_t* const slot_v = slot_v_.data();
   const std::uint32_t* const slot_w = slot_w_.data();
   std::uint32_t* const stamp = stamp_.data();
+  std::uint16_t* const frame_hits = frame_hits_.data();
+  float* const frame_frac = frame_frac_.data();
+  std::uint32_t* const hit_voxels = hit_voxels_.data();
+  std::size_t num_hit_voxels = 0;
   std::size_t duplicates = 0;
   // |x| below this keeps |x / l_v + 1/2| well inside int (fastFloor's domain); tested on the
   // float so that NaN and inf fail it too.
   const float coord_limit = static_cast<float>(0.5 * kIndexLimit * config_.voxel_size);
 
-  for (const Eigen::Vector3f& ps : points) {
+  const std::size_t num_points = points.size();
+  for (std::size_t pi = 0; pi < num_points; ++pi) {
+    const Eigen::Vector3f& ps = points[pi];
     const float px = ps.x(), py = ps.y(), pz = ps.z();
     const float r2 = px * px + py * py + pz * pz;
     // NaN and inf fail this test too; they are told apart only on this rare path.
@@ -563,16 +601,35 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
       k = static_cast<std::size_t>(slot_u[ru]) + slot_v[rv] + slot_w[rw];
       if (stamp[k] == now) {
         ++duplicates;
+        // Every point counts towards hitMass(), the duplicates too.
+        if (frame_hits[k] != 0xffff) {
+          ++frame_hits[k];
+          frame_frac[k] += static_cast<float>(sz - std::floor(sz));
+        }
         continue;
       }
       stamp[k] = now;
+      frame_hits[k] = 1;
+      frame_frac[k] = static_cast<float>(sz - std::floor(sz));
+      hit_voxels[num_hit_voxels++] = static_cast<std::uint32_t>(k);
     }
     // Built only here, so that nothing of the rare path is materialised for every point.
     const Endpoint ep{{sx, sy, sz}, {ru, rv, rw}, Eigen::Vector3f(fx, fy, fz), std::sqrt(r2), k,
                       inside};
-    useEndpoint(a, ep, stats);
+    useEndpoint(a, ep, pi < first_no_carve, stats);
   }
   stats.points_duplicate += duplicates;
+
+  // This frame's counts join hitMass(), older ones faded by the frames since.
+  for (std::size_t t = 0; t < num_hit_voxels; ++t) {
+    const std::size_t k = hit_voxels[t];
+    const float keep = fadeFor(frame_ - mass_frame_[k]);
+    hit_mass_[k] = hit_mass_[k] * keep + static_cast<float>(frame_hits[k]);
+    hit_frac_[k] = hit_frac_[k] * keep + frame_frac[k];
+    mass_frame_[k] = frame_;
+    frame_hits[k] = 0;
+    frame_frac[k] = 0.0f;
+  }
 
   // Increments after all decrements of the frame: a ray that grazes a surface seen by another
   // ray of the same frame must not erase that evidence through the clamp at lop_max / lop_min.
@@ -603,6 +660,41 @@ int VoxelGrid::logOdds(const VoxelIndex& i) const {
 
 bool VoxelGrid::isOccupied(const VoxelIndex& i) const {
   return contains(i) && lop_[linear(i)] >= config_.occ_threshold;
+}
+
+float VoxelGrid::hitMass(const VoxelIndex& i) const {
+  if (!contains(i)) return 0.0f;
+  const std::size_t k = linear(i);
+  const float m = hit_mass_[k];
+  if (m == 0.0f) return 0.0f;
+  return m * fadeFor(frame_ - mass_frame_[k]);
+}
+
+float VoxelGrid::hitMeanZ(const VoxelIndex& i) const {
+  if (!contains(i)) return std::numeric_limits<float>::quiet_NaN();
+  const std::size_t k = linear(i);
+  if (!(hit_mass_[k] > 0.0f)) return std::numeric_limits<float>::quiet_NaN();
+  // The fading scales both sums alike: their ratio needs no fading. A voxel (w) spans
+  // [(w - 1/2) l_v, (w + 1/2) l_v) (Eq. (1), rounding).
+  const double frac = static_cast<double>(hit_frac_[k]) / hit_mass_[k];
+  return static_cast<float>((i.w - 0.5 + frac) * config_.voxel_size);
+}
+
+float VoxelGrid::massMeanZ(int u, int v, int w_from, int w_to) const {
+  double mass = 0.0, sum = 0.0;
+  for (int w = w_from; w <= w_to; ++w) {
+    const VoxelIndex i{u, v, w};
+    if (!contains(i)) continue;
+    const std::size_t k = linear(i);
+    const float m = hit_mass_[k];
+    if (!(m > 0.0f)) continue;
+    // Both sums fade alike from the voxel's last update: weigh by the faded mass.
+    const double keep = fadeFor(frame_ - mass_frame_[k]);
+    mass += m * keep;
+    sum += ((w - 0.5) * m + hit_frac_[k]) * keep;
+  }
+  if (!(mass > 0.0)) return std::numeric_limits<float>::quiet_NaN();
+  return static_cast<float>(sum / mass * config_.voxel_size);
 }
 
 VoxelPointList VoxelGrid::points(const VoxelIndex& i) const {

@@ -225,7 +225,8 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
           continue;  // the first variant refused the pair: so would this one
         } else {
           ok = p.processDisparity(processors[0]->disparity(), processors[0]->disparityCamera(),
-                                  T_fixed_sensor, base, truth.t, &r, &why);
+                                  T_fixed_sensor, base, truth.t, &r, &why,
+                                  processors[0]->coarseDisparity());
         }
         if (detectors[k]) {
           // The obstacle-detection nodelet's work on the same disparity message: the range
@@ -310,8 +311,8 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
             // Every examined cell: where it is, what the map and the ground truth call it, its
             // segment, its column's indexed height and its measured surface height.
             std::ofstream cells_csv(options.image_dir + "/" + name + "_cells.csv");
-            cells_csv
-                << "x,y,label,gt,segment,w,surface_z,ground_z,lo_m2,lo_m1,lo_0,lo_1,n_m1,n_0\n";
+            cells_csv << "x,y,label,gt,segment,w,surface_z,ground_z,lo_m2,lo_m1,lo_0,lo_1,n_m1,n_0,"
+                         "mass_m1,mass_0,mass_1\n";
             const HeightMap& hm = p.mapper().heightMap();
             for (int v = sm.min_v; v < sm.min_v + sm.height; ++v) {
               for (int u = sm.min_u; u < sm.min_u + sm.width; ++u) {
@@ -330,18 +331,20 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
                 const VoxelGrid& vg = p.mapper().grid();
                 int lo[4] = {0, 0, 0, 0};
                 int np[2] = {0, 0};
+                float mass[3] = {0.0f, 0.0f, 0.0f};
                 for (int w = -2; w <= 1; ++w) {
                   const VoxelIndex vi{u, v, w};
                   if (!vg.contains(vi)) continue;
                   lo[w + 2] = vg.logOdds(vi);
+                  if (w >= -1) mass[w + 1] = vg.hitMass(vi);
                   if (w == -1 || w == 0) np[w + 1] = static_cast<int>(vg.points(vi).size);
                 }
-                char line[200];
+                char line[260];
                 std::snprintf(line, sizeof(line),
-                              "%.2f,%.2f,%s,%s,%d,%d,%.3f,%.3f,%d,%d,%d,%d,%d,%d\n", pw.x(), pw.y(),
-                              toString(sm.labels[c]), toString(g), sm.segment[c],
+                              "%.2f,%.2f,%s,%s,%d,%d,%.3f,%.3f,%d,%d,%d,%d,%d,%d,%.0f,%.0f,%.0f\n",
+                              pw.x(), pw.y(), toString(sm.labels[c]), toString(g), sm.segment[c],
                               static_cast<int>(sm.column_height[c]), sz, gz, lo[0], lo[1], lo[2],
-                              lo[3], np[0], np[1]);
+                              lo[3], np[0], np[1], mass[0], mass[1], mass[2]);
                 cells_csv << line;
               }
             }

@@ -234,6 +234,7 @@ void DisparityRos::processFrame(const Frame& frame) {
   }
 
   DisparityStats stats;
+  pipeline_.setFocalBaseline(camera_.fx * camera_.baseline);
   if (!pipeline_.compute(left_grey, right_grey, &disparity_, &stats, &err)) {
     books_.reject("disparity failed", "dropped a stereo frame: " + toParameterNames(err));
     return;

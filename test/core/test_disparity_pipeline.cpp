@@ -741,6 +741,62 @@ TEST(DisparityPipeline, CoarseFillKeepsAStepAJump) {
   EXPECT_LE(between, valid / 200);
 }
 
+TEST(DisparityPipeline, CoarseFillReachesOnlyAsFarAsItsMinimumDisparity) {
+  // The two surfaces of the step above (disparity 12 and 24) with coarse_fill_max_depth 1 m for a
+  // camera of f b = 18 px m (the reach at disparity 18): the near surface is filled as before,
+  // the far one keeps only its full-resolution readings; without f b the fill reaches both.
+  Scene scene = render(
+      {Layer{cv::Rect(0, 0, kTextureCols, kRows / 2), 12, weakTexture(8, 3.0, 5.0)},
+       Layer{cv::Rect(0, kRows / 2, kTextureCols, kRows / 2), 24, weakTexture(9, 3.0, 5.0)}});
+  addNoise(&scene, 3.0, 12);
+  DisparityPipelineConfig config;
+  config.coarse_fill_levels = 1;
+  DisparityPipeline fine_pipeline(DisparityPipelineConfig{}), all(config);
+  config.coarse_fill_max_depth = 1.0;
+  DisparityPipeline near(config), unknown(config);
+  near.setFocalBaseline(18.0);
+  cv::Mat fine, filled, reach;
+  std::string error;
+  ASSERT_TRUE(fine_pipeline.compute(scene.left, scene.right, &fine, nullptr, &error)) << error;
+  ASSERT_TRUE(all.compute(scene.left, scene.right, &filled, nullptr, &error)) << error;
+  ASSERT_TRUE(near.compute(scene.left, scene.right, &reach, nullptr, &error)) << error;
+  cv::Mat without_geometry;
+  ASSERT_TRUE(unknown.compute(scene.left, scene.right, &without_geometry, nullptr, &error))
+      << error;
+  EXPECT_EQ(cv::countNonZero(without_geometry != filled), 0);
+  int far_fine = 0, far_reach = 0, far_all = 0, near_all = 0, near_reach = 0;
+  // Rows within a coarse window of the step are left out: there the window fattens the near
+  // surface over the far one, which is the fill's rule at an edge, not its reach.
+  const int margin = 2 * config.block_size;
+  for (int y = kMatchable.y; y < kMatchable.br().y; ++y) {
+    if (std::abs(y - kRows / 2) < margin) continue;
+    const bool far_half = y < kRows / 2;
+    for (int x = kMatchable.x; x < kMatchable.br().x; ++x) {
+      const bool f = isValidDisparity(fine.at<float>(y, x));
+      const bool a = isValidDisparity(filled.at<float>(y, x));
+      const bool r = isValidDisparity(reach.at<float>(y, x));
+      if (far_half) {
+        far_fine += f;
+        far_all += a;
+        far_reach += r;
+        // Beyond the reach only full-resolution readings, unchanged.
+        if (r) ASSERT_EQ(reach.at<float>(y, x), fine.at<float>(y, x)) << x << "," << y;
+      } else {
+        near_all += a;
+        near_reach += r;
+      }
+    }
+  }
+  std::printf("far half: fine %d, filled %d, within reach %d; near half: filled %d, within %d\n",
+              far_fine, far_all, far_reach, near_all, near_reach);
+  EXPECT_GT(far_all, 2 * far_fine);  // the fill reaches the far surface when unlimited
+  EXPECT_EQ(far_reach, far_fine);
+  EXPECT_GT(near_reach, near_all * 9 / 10);
+  DisparityPipelineConfig bad;
+  bad.coarse_fill_max_depth = -1.0;
+  EXPECT_NE(bad.validate().find("coarse_fill_max_depth"), std::string::npos);
+}
+
 TEST(DisparityPipeline, CoarseFillPutsNothingBehindANearThinEdge) {
   // The edge of a table top: a strip 6 rows high, well textured, at disparity 30 in front of a
   // pale far surface at 12. The coarse window fattens the far surface over the strip's rows; a

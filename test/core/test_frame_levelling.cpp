@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <vector>
@@ -118,6 +119,50 @@ TEST(FrameLevelling, UndoesAnUnreportedPitchRollAndHeightOnTheRobotsFloor) {
       EXPECT_NEAR(q.z(), std::tan(10.0 * kDeg) * (q.x() - 3.0), 0.05);
     }
   }
+}
+
+// The ground within 3 m of the robot as the safety mapper's near_radius reference sees it: the
+// base's level plane everywhere, though a sunken area 5.6 cm lower lies on the right (y < -0.4,
+// x in [1.4, 3]) and a ramp falls 10 deg on the left from x = 2 (y > 0.6); 1 cm noise.
+std::vector<Eigen::Vector3f> nearGroundPoints(const Eigen::Isometry3d& T_true) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<Eigen::Vector3f> pts;
+  for (double x = 1.2; x <= 3.0; x += 0.02) {
+    for (double y = -1.5; y <= 1.5; y += 0.02) {
+      double z = 0.0;
+      if (y < -0.4 && x >= 1.4) z = -0.056;
+      if (y > 0.6 && x >= 2.0) z = -std::tan(10.0 * kDeg) * (x - 2.0);
+      const Eigen::Vector3d p(x, y, z + noise(rng));
+      pts.push_back((T_true.inverse() * p).cast<float>());
+    }
+  }
+  return pts;
+}
+
+TEST(FrameLevelling, TiltAloneWithThePinnedOffsetIgnoresLowerGroundNearTheRobot) {
+  const Eigen::Isometry3d T_true = trueCamera();
+  const std::vector<Eigen::Vector3f> pts = nearGroundPoints(T_true);
+  const GroundReference plane = [](float, float) { return 0.0f; };
+  const Eigen::Isometry3f T_rep = reported(T_true, 0.4, -0.5, 0.0).cast<float>();
+  FrameLevellingConfig pinned = enabledConfig();
+  pinned.estimate_offset = false;
+  Eigen::Isometry3f T_fixed;
+  FrameLevellingResult r;
+  ASSERT_TRUE(levelFrame(pts, T_rep, plane, pinned, &T_fixed, &r));
+  // Within 0.1 deg (the ramp's first 14 cm lie inside the 2.5 cm gate): 5 mm at 3 m.
+  EXPECT_NEAR(r.roll_deg, -0.4, 0.1);
+  EXPECT_NEAR(r.pitch_deg, 0.5, 0.1);
+  EXPECT_EQ(r.dz, 0.0);
+  // The first rule (offset free, a gate of 10 then 5 cm) takes the sunken area's and the ramp's
+  // points into its fit and lands farther off.
+  FrameLevellingResult r_free;
+  ASSERT_TRUE(levelFrame(pts, T_rep, plane, enabledConfig(), &T_fixed, &r_free));
+  const double err_pinned = std::hypot(r.roll_deg + 0.4, r.pitch_deg - 0.5);
+  const double err_free = std::hypot(r_free.roll_deg + 0.4, r_free.pitch_deg - 0.5);
+  EXPECT_GT(err_free, 2.0 * err_pinned) << err_free << " vs " << err_pinned;
+  std::printf("tilt error: pinned %.3f deg, offset free %.3f deg (dz %.3f m)\n", err_pinned,
+              err_free, r_free.dz);
 }
 
 TEST(FrameLevelling, RefusesWhatIsNotChassisBobbingOrHasNoGround) {

@@ -281,6 +281,103 @@ TEST(HeightMap, NearViewPassesOverTheFarViewsNoiseTail) {
   EXPECT_NE(near.validate(), "");
 }
 
+// A floor's frame: `n_floor` points at z = `z_floor` in column (1, 1) and `n_tail` points of its
+// noise tail at z = `z_tail`, all in one frame (dense disparity), from a camera 2 m above.
+void denseFrame(VoxelGrid* g, int n_floor, float z_floor, int n_tail, float z_tail) {
+  const Eigen::Isometry3f T(Eigen::Translation3f(0.1f, 0.1f, 2.0f));
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < n_floor; ++i)
+    pts.push_back(Eigen::Vector3f(0.06f + 0.08f * i / n_floor, 0.1f, z_floor) - T.translation());
+  for (int i = 0; i < n_tail; ++i)
+    pts.push_back(Eigen::Vector3f(0.06f + 0.08f * i / n_tail, 0.12f, z_tail) - T.translation());
+  g->integrate(pts, T);
+}
+
+TEST(HeightMap, TailSharePassesOverANoiseTailButKeepsASurface) {
+  HeightMapConfig cfg;
+  cfg.tail_share = 0.5;
+  HeightMap hm(cfg), paper;
+  {
+    // A floor at z = 0.02 (w = 0) with 100 points a frame and 10 of its noise tail at z = 0.06
+    // (w = 1): 000's one point per voxel per frame makes both voxels occupied alike.
+    VoxelGrid g(smallGrid());
+    g.recenter(Eigen::Vector3f::Zero());
+    for (int f = 0; f < 12; ++f)
+      denseFrame(&g, 100, 0.02f, 10, 0.06f);
+    ASSERT_TRUE(g.isOccupied({1, 1, 0}));
+    ASSERT_TRUE(g.isOccupied({1, 1, 1}));
+    ASSERT_TRUE(paper.build(g, 0.0f));
+    EXPECT_EQ(paper.at(1, 1), 1);  // 000: the highest occupied voxel, the tail
+    ASSERT_TRUE(hm.build(g, 0.0f));
+    EXPECT_EQ(hm.atIndex(hm.index(1, 1)), 0);  // the surface is where the points are
+    EXPECT_EQ(hm.lowestAtIndex(hm.index(1, 1)), 0);
+    EXPECT_NEAR(hm.surfaceHeightAtIndex(hm.index(1, 1)), 0.02f, 1e-4f);
+  }
+  {
+    // A step's upper surface at z = 0.06 (w = 1) with 60 points a frame above 40 of its lower
+    // noise tail (z = 0.04, w = 0): more than half as many points, kept.
+    VoxelGrid g(smallGrid());
+    g.recenter(Eigen::Vector3f::Zero());
+    for (int f = 0; f < 12; ++f)
+      denseFrame(&g, 40, 0.04f, 60, 0.06f);
+    ASSERT_TRUE(hm.build(g, 0.0f));
+    EXPECT_EQ(hm.at(1, 1), 1);
+  }
+  {
+    // An obstacle's face: one point a voxel and frame up to w = 5, the top voxel kept.
+    VoxelGrid g(smallGrid());
+    g.recenter(Eigen::Vector3f::Zero());
+    const Eigen::Isometry3f T(Eigen::Translation3f(-1.0f, 0.1f, 1.0f));
+    for (int f = 0; f < 12; ++f) {
+      std::vector<Eigen::Vector3f> pts;
+      for (int w = 0; w <= 5; ++w)
+        pts.push_back(Eigen::Vector3f(0.08f, 0.1f, 0.1f * w) - T.translation());
+      g.integrate(pts, T);
+    }
+    ASSERT_TRUE(hm.build(g, 0.0f));
+    EXPECT_EQ(hm.at(1, 1), 5);
+  }
+  cfg.tail_share = 1.5;
+  EXPECT_NE(cfg.validate().find("tail_share"), std::string::npos);
+}
+
+TEST(HeightMap, MassHeightsTakeEveryPointOfTheSurfacesVoxels) {
+  // A floor at z = -0.056 whose noise spreads over w = -1 and w = 0 (the band boundary at
+  // -0.05): 70 points a frame at -0.07 and 30 at -0.023 (mean -0.0559). The top voxel's
+  // list holds the upper part alone; every point of the three voxels around the top gives the
+  // floor's height. mass_bands puts the column in the band its surface lies in.
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  for (int f = 0; f < 12; ++f)
+    denseFrame(&g, 70, -0.07f, 30, -0.023f);
+  ASSERT_TRUE(g.isOccupied({1, 1, 0}));
+  ASSERT_TRUE(g.isOccupied({1, 1, -1}));
+  const float expected = (70 * -0.07f + 30 * -0.023f) / 100.0f;
+  HeightMap lists;
+  ASSERT_TRUE(lists.build(g, 0.0f));
+  const int c = lists.index(1, 1);
+  EXPECT_EQ(lists.atIndex(c), 0);
+  EXPECT_NEAR(lists.surfaceHeightAtIndex(c), -0.023f, 1e-4f);  // the tail alone
+  HeightMapConfig cfg;
+  cfg.mass_heights = true;
+  HeightMap mass(cfg);
+  ASSERT_TRUE(mass.build(g, 0.0f));
+  EXPECT_EQ(mass.atIndex(c), 0);  // still the highest occupied voxel
+  EXPECT_NEAR(mass.surfaceHeightAtIndex(c), expected, 1e-4f);
+  EXPECT_NEAR(mass.groundHeightAtIndex(c), expected, 1e-4f);
+  cfg.mass_bands = true;
+  HeightMap bands(cfg);
+  ASSERT_TRUE(bands.build(g, 0.0f));
+  EXPECT_EQ(bands.atIndex(c), -1);  // -0.0559 lies in w = -1
+  EXPECT_EQ(bands.lowestAtIndex(c), -1);
+  EXPECT_NEAR(bands.surfaceHeightAtIndex(c), expected, 1e-4f);
+  // Never above the top occupied voxel nor below the lowest: without the lower voxel occupied
+  // the band stays the top one.
+  g.setLogOdds({1, 1, -1}, 0);
+  ASSERT_TRUE(bands.build(g, 0.0f));
+  EXPECT_EQ(bands.atIndex(c), 0);
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

@@ -377,6 +377,49 @@ TEST(PlaneFitter, ObservationMeansFitAStripOneCellWide) {
   EXPECT_GT(pl.heightAt(0.5, 0.0), pm.heightAt(0.5, 0.0) + 0.005);  // the lists sit in front
 }
 
+TEST(PlaneFitter, MassHeightsFitTheColumnsHeightsAndLeaveOutALowerSurfacesTail) {
+  // A segment of band w = 0, 10 x 6 cells: the floor at z = 0.01 over v = 0..3 and, over
+  // v = 4..5, the columns where a street 9 cm lower reached into the band with the upper tail
+  // of its noise (10 points a frame at z = -0.04 over 90 at z = -0.09 in w = -1). Each frame is
+  // dense: many points per voxel, seen from above.
+  VoxelGridConfig gc;
+  gc.size_x = gc.size_y = 4.0;
+  VoxelGrid grid(gc);
+  grid.recenter(Eigen::Vector3f::Zero());
+  for (int f = 0; f < 12; ++f) {
+    const Eigen::Isometry3f T(Eigen::Translation3f(0.45f, 0.25f, 2.0f));
+    std::vector<Eigen::Vector3f> pts;
+    for (int u = 0; u < 10; ++u) {
+      for (int v = 0; v < 6; ++v) {
+        for (int k = 0; k < 9; ++k) {
+          const float x = 0.1f * u - 0.04f + 0.01f * k, y = 0.1f * v - 0.03f + 0.006f * k;
+          if (v < 4) {
+            pts.push_back(Eigen::Vector3f(x, y, 0.01f) - T.translation());
+          } else {
+            pts.push_back(Eigen::Vector3f(x, y, k == 0 ? -0.04f : -0.09f) - T.translation());
+          }
+        }
+      }
+    }
+    grid.integrate(pts, T);
+  }
+  GroundSegments s;
+  ASSERT_NO_FATAL_FAILURE(oneSegment(10, 0, 5, &s));
+  const GroundPlane lists = PlaneFitter(PlaneFitConfig()).fitSegment(grid, s, 0);
+  ASSERT_TRUE(lists.valid);
+  PlaneFitConfig cfg;
+  cfg.mass_heights = true;
+  const GroundPlane mass = PlaneFitter(cfg).fitSegment(grid, s, 0);
+  ASSERT_TRUE(mass.valid);
+  // The street's columns (every point: -0.085) are off the floor's plane and left out: the
+  // plane is the floor's, level at 0.01 where the street's columns begin.
+  EXPECT_NEAR(mass.heightAt(0.45, 0.4), 0.01, 3e-3);
+  EXPECT_LT(mass.slope_deg, 1.0);
+  // Without the refits a fit to the columns' heights tilts across them; the lists hold only the
+  // street's tail in the band, which drags the plane less but still lowers it.
+  EXPECT_LT(lists.heightAt(0.45, 0.4), 0.01 - 2e-3);
+}
+
 TEST(PlaneFit, AWeightedPointIsThatManyEqualPoints) {
   const std::vector<Eigen::Vector3d> pts = planePoints(0.1, -0.05, 0.3, 2.0, 1.0, 5, 0.1, 0.02);
   PlaneFitAccumulator repeated, weighted;

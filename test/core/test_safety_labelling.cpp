@@ -127,6 +127,9 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.floor_fragment_tolerance = 1.5; }, "floor_fragment_tolerance");
   bad([](auto& b) { b.step_height_margin = -0.01; }, "step_height_margin");
   bad([](auto& b) { b.step_height_margin = 0.05; }, "step_height_margin");  // not below h_T
+  EXPECT_DOUBLE_EQ(c.slope_margin_deg, 0.0);  // ours, off: 000's theta_max
+  bad([](auto& b) { b.slope_margin_deg = -0.5; }, "slope_margin_deg");
+  bad([](auto& b) { b.slope_margin_deg = 7.5; }, "slope_margin_deg");  // over theta_max - theta_T
   c.max_step_height = -1.0;
   EXPECT_THROW(SafetyLabelling{c}, std::invalid_argument);
 }
@@ -166,6 +169,25 @@ TEST(SafetyLabelling, SlopeDecidesLevelInclinedNonGround) {
     EXPECT_EQ(w.map.segments[w.segAt(12, 5)].reachable, deg <= 10.0);
     // The normal of an Inclined cell is its segment's plane normal.
     EXPECT_NEAR(std::acos(w.map.segments[w.segAt(12, 5)].plane.normal.z()) / kDeg, deg, 1e-9);
+  }
+}
+
+TEST(SafetyLabelling, APlaneWithinTheSlopeMarginOfThetaMaxIsNonGround) {
+  // The region beyond the floor measured at 9 deg: Inclined and reachable under 000's theta_max
+  // alone, Non-ground with a 1.5 deg margin (8.5 deg); 8 deg stays Inclined with it.
+  std::vector<std::string> rows(10, "000000001111111111");
+  for (double margin : {0.0, 1.5}) {
+    for (double deg : {8.0, 9.0}) {
+      World w(rows, 2, 5);
+      SafetyLabellingConfig c = paperLabelling();
+      c.slope_margin_deg = margin;
+      w.planeAt(12, 5) = inclined(deg, 0.75, 0.0);
+      ASSERT_TRUE(w.label(c));
+      const bool safe = deg <= 10.0 - margin;
+      EXPECT_EQ(w.at(12, 5), safe ? L::kInclined : L::kNonGround) << deg << " " << margin;
+      EXPECT_EQ(w.map.segments[w.segAt(12, 5)].reachable, safe) << deg << " " << margin;
+      EXPECT_EQ(w.at(2, 5), L::kLevel);
+    }
   }
 }
 

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace stereo_safety_map {
@@ -467,6 +468,128 @@ TEST(StereoFrameProcessor, CuesReachTheMapWhileTheChairStandsStill) {
   // Nothing live and nothing marked: the next stationary frame recomputes nothing.
   EXPECT_FALSE(p.processDisparity(disparity, cam, T, base, 11.6, &r, &err));
   EXPECT_FALSE(r.map_refreshed);
+}
+
+TEST(StereoFrameProcessor, CoarseReadingsBuildOccupancyAndCarveOnlyWhenAllowed) {
+  // A camera 1 m above the base looking along +x: full-resolution readings of a surface 2 m
+  // ahead in columns [100, 140), coarse-fill readings 4 m ahead in the columns just beside it
+  // ([140, 150)), whose rays graze the near surface's voxels. With coarse_free_space (the first
+  // rule) those rays carve them; without it the near surface's log-odds are those of a frame
+  // without the coarse readings, and the coarse readings still occupy their own voxels.
+  const ds::StereoHeadConfig head = smallHead();
+  const StereoCameraModel cam = cameraOf(head);
+  cv::Mat fine(cam.height, cam.width, CV_32FC1, cv::Scalar(0.0f));
+  cv::Mat coarse = fine.clone();
+  fine(cv::Rect(100, 100, 40, 40)).setTo(static_cast<float>(cam.disparityFromDepth(2.0)));
+  coarse(cv::Rect(140, 100, 10, 40)).setTo(static_cast<float>(cam.disparityFromDepth(4.0)));
+  Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
+  Eigen::Matrix3f optical_to_body;
+  optical_to_body << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  T.linear() = optical_to_body;
+  T.translation() = Eigen::Vector3f(0.0f, 0.0f, 1.0f);
+  auto run = [&](bool free_space, bool with_coarse) {
+    StereoFrameProcessorConfig c;
+    c.mapper.skip_stationary_frames = false;
+    c.obstacle_cue = false;
+    c.coarse_free_space = free_space;
+    auto p = std::make_unique<StereoFrameProcessor>(c);
+    for (int k = 0; k < 12; ++k) {
+      StereoFrameResult r;
+      std::string err;
+      EXPECT_TRUE(p->processDisparity(fine, cam, T, Eigen::Vector3f::Zero(), 0.1 * k, &r, &err,
+                                      with_coarse ? coarse : cv::Mat()))
+          << err;
+    }
+    return p;
+  };
+  const auto none = run(true, false), carving = run(true, true), evidence = run(false, true);
+  // The near surface's voxels: x = 2 m, the columns of the strip's right edge (y < 0 in the
+  // body frame is the image's right), over its rows.
+  const VoxelGrid& g_none = none->mapper().grid();
+  const VoxelGridConfig& gc = g_none.config();
+  long sum_none = 0, sum_carving = 0, sum_evidence = 0;
+  for (int u = 19; u <= 21; ++u) {
+    for (int v = -20; v <= 20; ++v) {
+      for (int w = 0; w <= 20; ++w) {
+        const VoxelIndex i{u, v, w};
+        sum_none += std::max(0, g_none.logOdds(i));
+        sum_carving += std::max(0, carving->mapper().grid().logOdds(i));
+        sum_evidence += std::max(0, evidence->mapper().grid().logOdds(i));
+      }
+    }
+  }
+  ASSERT_GT(sum_none, 0);
+  EXPECT_EQ(sum_evidence, sum_none);
+  EXPECT_LT(sum_carving, sum_none);
+  // The coarse readings 4 m ahead occupy their voxels either way.
+  int occupied_carving = 0, occupied_evidence = 0;
+  for (int v = -20; v <= 20; ++v) {
+    for (int w = 0; w <= 20; ++w) {
+      for (int u = 39; u <= 41; ++u) {
+        occupied_carving += carving->mapper().grid().isOccupied(VoxelIndex{u, v, w});
+        occupied_evidence += evidence->mapper().grid().isOccupied(VoxelIndex{u, v, w});
+      }
+    }
+  }
+  EXPECT_GT(occupied_evidence, 0);
+  EXPECT_EQ(occupied_evidence, occupied_carving);
+  (void)gc;
+  // A coarse image of the wrong size is refused.
+  StereoFrameProcessor p;
+  std::string err;
+  EXPECT_FALSE(p.processDisparity(fine, cam, T, Eigen::Vector3f::Zero(), 0.0, nullptr, &err,
+                                  cv::Mat(3, 3, CV_32FC1, cv::Scalar(1.0f))));
+  EXPECT_NE(err.find("coarse"), std::string::npos) << err;
+}
+
+TEST(StereoFrameProcessor, TheCoarseFillsReadingsComeOnTheirOwn) {
+  // processImages with the coarse fill and coarse_free_space off: disparity() holds the
+  // full-resolution readings alone, coarseDisparity() the filled ones; together they are the
+  // pipeline's output. With coarse_free_space on (default) disparity() is that merged output,
+  // the disparity nodelet's message, and coarseDisparity() is empty.
+  ds::Scene scene = floorWithBox();
+  scene.materials[0].contrast = 0.05;  // a pale floor: the fine level keeps little of it
+  const ds::StereoHeadConfig head = smallHead();
+  ds::StereoRenderer renderer(scene, head, 3);
+  cv::Mat left, right;
+  const Eigen::Isometry3d T = head.baseToLeftOptical();
+  ASSERT_TRUE(renderer.render(T, 0, &left, &right, nullptr, nullptr));
+  StereoFrameProcessorConfig c;
+  c.disparity.coarse_fill_levels = 1;
+  c.coarse_free_space = true;
+  StereoFrameProcessor merged_path(c);
+  c.coarse_free_space = false;
+  StereoFrameProcessor p(c);
+  StereoFrameResult r;
+  std::string err;
+  p.processImages(left, right, cameraOf(head), T.cast<float>(), Eigen::Vector3f::Zero(), 0.0, &r,
+                  &err);
+  merged_path.processImages(left, right, cameraOf(head), T.cast<float>(), Eigen::Vector3f::Zero(),
+                            0.0, &r, &err);
+  EXPECT_TRUE(merged_path.coarseDisparity().empty());
+  ASSERT_FALSE(p.disparity().empty()) << err;
+  ASSERT_FALSE(p.coarseDisparity().empty());
+  DisparityPipeline pipeline(c.disparity);
+  pipeline.setFocalBaseline(cameraOf(head).fx * cameraOf(head).baseline);
+  cv::Mat merged;
+  ASSERT_TRUE(pipeline.compute(left, right, &merged, nullptr, &err)) << err;
+  int both = 0, coarse = 0, fine = 0, lost = 0, unlike_merged = 0;
+  for (int y = 0; y < merged.rows; ++y) {
+    for (int x = 0; x < merged.cols; ++x) {
+      unlike_merged +=
+          (merged.at<float>(y, x) > 0.0f) != (merged_path.disparity().at<float>(y, x) > 0.0f);
+      const bool f = p.disparity().at<float>(y, x) > 0.0f;
+      const bool k = p.coarseDisparity().at<float>(y, x) > 0.0f;
+      both += f && k;
+      coarse += k;
+      fine += f;
+      lost += (merged.at<float>(y, x) > 0.0f) != (f || k);
+    }
+  }
+  EXPECT_EQ(both, 0);
+  EXPECT_EQ(lost, 0);
+  EXPECT_EQ(unlike_merged, 0);
+  EXPECT_GT(coarse, fine);
 }
 
 TEST(StereoFrameProcessor, BadInputIsRefusedWithAReason) {

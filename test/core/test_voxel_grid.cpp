@@ -718,6 +718,69 @@ TEST(VoxelGridPoints, MomentsCountEveryPointWhileTheListKeepsTheClosest) {
   EXPECT_EQ(g.moments(i).weight, 0.0f);
 }
 
+TEST(VoxelGridPoints, HitMassCountsEveryPointOfTheFrameAndFades) {
+  // 000 Sec. IV integrates one point per voxel per frame; hitMass() counts all of them: 30 points
+  // of a frame in one voxel and 2 in the voxel above weigh 30 and 2, not 1 and 1.
+  VoxelGridConfig c;
+  c.size_x = c.size_y = 4.0;
+  c.size_z = 1.0;
+  c.z_below_robot = 0.5;
+  VoxelGrid g(c);
+  Points frame;
+  double sum_z = 0.0;
+  for (int k = 0; k < 30; ++k) {
+    const float z = -0.04f + 0.08f * static_cast<float>(k) / 29.0f;  // voxel w = 0
+    frame.push_back(Vec(1.0f, 0.0f, z));
+    sum_z += z;
+  }
+  frame.push_back(Vec(1.0f, 0.0f, 0.07f));  // voxel w = 1
+  frame.push_back(Vec(1.0f, 0.0f, 0.09f));
+  g.integrate(frame, cameraAt(Vec::Zero()));
+  EXPECT_FLOAT_EQ(g.hitMass(idx(10, 0, 0)), 30.0f);
+  EXPECT_FLOAT_EQ(g.hitMass(idx(10, 0, 1)), 2.0f);
+  EXPECT_EQ(g.hitMass(idx(11, 0, 0)), 0.0f);    // a voxel without points
+  EXPECT_EQ(g.hitMass(idx(1000, 0, 0)), 0.0f);  // outside the window
+  EXPECT_NEAR(g.hitMeanZ(idx(10, 0, 0)), sum_z / 30.0, 1e-5);
+  EXPECT_NEAR(g.hitMeanZ(idx(10, 0, 1)), 0.08, 1e-5);
+  EXPECT_TRUE(std::isnan(g.hitMeanZ(idx(11, 0, 0))));
+  // The mean of every point of the two voxels, each point weighing the same.
+  EXPECT_NEAR(g.massMeanZ(10, 0, -1, 1), (sum_z + 0.16) / 32.0, 1e-5);
+  EXPECT_TRUE(std::isnan(g.massMeanZ(11, 0, -1, 1)));
+  // The point list still holds one point per frame (000 Sec. IV).
+  EXPECT_EQ(g.points(idx(10, 0, 0)).size, 1u);
+  // Frames without points fade the mass by (1 - 1 / kHitMassWindow) each; the mean is kept.
+  for (int f = 0; f < 10; ++f)
+    g.integrate({Vec(-1.0f, 0.0f, 0.0f)}, cameraAt(Vec::Zero()));
+  const float keep = std::pow(1.0f - 1.0f / VoxelGrid::kHitMassWindow, 10.0f);
+  EXPECT_NEAR(g.hitMass(idx(10, 0, 0)), 30.0f * keep, 1e-3f);
+  EXPECT_NEAR(g.hitMass(idx(10, 0, 1)), 2.0f * keep, 1e-4f);
+  EXPECT_NEAR(g.hitMeanZ(idx(10, 0, 0)), sum_z / 30.0, 1e-5);
+  EXPECT_NEAR(g.massMeanZ(10, 0, -1, 1), (sum_z + 0.16) / 32.0, 1e-5);
+  // A new frame adds to the faded sum.
+  g.integrate({Vec(1.0f, 0.0f, 0.0f)}, cameraAt(Vec::Zero()));
+  EXPECT_NEAR(g.hitMass(idx(10, 0, 0)),
+              30.0f * keep * (1.0f - 1.0f / VoxelGrid::kHitMassWindow) + 1.0f, 1e-3f);
+  g.clear();
+  EXPECT_EQ(g.hitMass(idx(10, 0, 0)), 0.0f);
+  EXPECT_TRUE(std::isnan(g.massMeanZ(10, 0, -1, 1)));
+}
+
+TEST(VoxelGridPoints, HitMassLeavesWithTheWindow) {
+  VoxelGridConfig c;
+  c.size_x = c.size_y = 2.0;
+  c.size_z = 1.0;
+  c.z_below_robot = 0.5;
+  VoxelGrid g(c);
+  g.recenter(Vec::Zero());
+  g.integrate({Vec(0.5f, 0.0f, 0.0f), Vec(0.5f, 0.0f, 0.01f)}, cameraAt(Vec::Zero()));
+  EXPECT_FLOAT_EQ(g.hitMass(idx(5, 0, 0)), 2.0f);
+  g.recenter(Vec(5.0f, 0.0f, 0.0f));  // the voxel leaves the window
+  EXPECT_EQ(g.hitMass(idx(5, 0, 0)), 0.0f);
+  g.recenter(Vec::Zero());  // and comes back empty
+  EXPECT_EQ(g.hitMass(idx(5, 0, 0)), 0.0f);
+  EXPECT_TRUE(std::isnan(g.hitMeanZ(idx(5, 0, 0))));
+}
+
 TEST(VoxelGridPoints, RangeIsDistanceToCameraWithRotation) {
   VoxelGrid g;
   Eigen::Isometry3f T = Eigen::Isometry3f::Identity();

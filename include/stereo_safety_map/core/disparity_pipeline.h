@@ -28,6 +28,7 @@
 #include <opencv2/core.hpp>
 
 #include <array>
+#include <cmath>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -119,6 +120,13 @@ struct DisparityPipelineConfig {
   /// window, so a step stays a jump. The coarse level keeps spike_min_region_size in its own
   /// pixels (4x the area). Does nothing when the shrunk pair is too small to match.
   int coarse_fill_levels = 0;
+  /// The coarse fill's reach [m], 0 = any range: a coarse reading farther than this from the
+  /// camera (disparity below f b / coarse_fill_max_depth, with the camera's f b given by
+  /// setFocalBaseline(); without it the fill reaches any range) fills nothing. The coarse window
+  /// is twice as wide (four times at the second level) and smooths a step's height over its
+  /// rows; near the chair a window covers little ground and a step stays steep, far away a 6 cm
+  /// curb becomes a gentle slope (docs/evaluation.md). [0, 100].
+  double coarse_fill_max_depth = 0.0;
 
   std::string validate() const;
 };
@@ -205,6 +213,13 @@ class DisparityPipeline {
   /// Replaces the configuration (checked at the next compute(); matchers are rebuilt only when
   /// a matcher setting changed).
   void setConfig(const DisparityPipelineConfig& config) { config_ = config; }
+  /// f b [px m] of the camera of the next pairs (focal length times baseline), for
+  /// DisparityPipelineConfig::coarse_fill_max_depth; 0 or non-finite = unknown.
+  void setFocalBaseline(double focal_times_baseline) {
+    focal_baseline_ = std::isfinite(focal_times_baseline) && focal_times_baseline > 0.0
+                          ? focal_times_baseline
+                          : 0.0;
+  }
   const DisparityPipelineConfig& config() const { return config_; }
 
   /// Rectified pair, CV_8UC1, CV_8UC3 (BGR or RGB: the channel order only changes the grey
@@ -224,6 +239,12 @@ class DisparityPipeline {
   /// Right-to-left disparity of the last compute() (right-image pixels), when the left-right
   /// check ran; else empty.
   const cv::Mat& rightDisparity() const { return right_ran_ ? right_disparity_ : empty_; }
+
+  /// Which pixels of the last compute()'s output the coarse fill gave (CV_8UC1, 255 there, 0
+  /// elsewhere); empty when coarse_fill_levels is 0 or the last compute() failed. The safety map
+  /// integrates these readings as occupancy evidence that carves no free space
+  /// (StereoFrameProcessorConfig::coarse_free_space).
+  const cv::Mat& coarseMask() const { return coarse_mask_; }
 
   /// How many times the matchers were (re)built; for checking the cache.
   int matcherBuilds() const { return matcher_builds_; }
@@ -278,6 +299,7 @@ class DisparityPipeline {
   void renderDebugImage(const cv::Mat& disparity);
 
   DisparityPipelineConfig config_;
+  double focal_baseline_ = 0.0;  ///< setFocalBaseline()
   MatcherKey key_;
   MatcherKey right_key_;  ///< the right-to-left matcher's (key_, or its half-resolution one)
   cv::Ptr<cv::StereoMatcher> left_matcher_;
@@ -313,6 +335,7 @@ class DisparityPipeline {
     cv::Mat reach_kernel;  ///< the (2 block_size + 1)^2 rectangle of that dilation
   };
   CoarseLevel coarse_;
+  cv::Mat coarse_mask_;  ///< coarseMask()
 
   // parallel_left_right: the helper thread and the arguments of its task.
   detail::TaskThread task_;

@@ -46,6 +46,14 @@ struct FrameLevellingConfig {
   /// pressure, a mount calibrated a little off) is removed, and a ramp or a drop ahead that
   /// pulls a few frames' estimates does not move the median. [0, 1000].
   int filter_frames = 0;
+  /// Estimate the vertical offset dz together with the rotation (true, the first rule) or keep
+  /// the camera's height and estimate the rotation alone (false, ours). A chassis tilts about
+  /// its wheels' contact line: the camera, a metre above it and a few decimetres ahead, moves
+  /// by millimetres, while the ground the camera sees spans only 1-2 m along its heading, over
+  /// which a small pitch and a vertical offset shift the points' heights almost alike. With
+  /// the offset free the pitch is poorly determined; pinned, each ground point's height error
+  /// is its distance times the tilt.
+  bool estimate_offset = true;
 
   std::string validate() const;
 };

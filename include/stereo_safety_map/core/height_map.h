@@ -51,6 +51,32 @@ struct HeightMapConfig {
   /// obstacle cells rose 49 -> 87 and missed obstacles 15 -> 18 of 66: it also passes over some
   /// low obstacles' tops. Off by default. 0 or [1, 100].
   double near_view_ratio = 0.0;
+  /// A noise tail is not a surface (ours; 0 = 000 Sec. V-A's highest occupied voxel). 000
+  /// Sec. IV updates a voxel with one point per frame, so the voxel above a floor that the
+  /// upper tail of the floor's stereo noise reaches with a stray point or two a frame (an
+  /// unreported chassis pitch lifts it further at range) reaches occ_t as fast as the floor's
+  /// own voxel with hundreds: dense disparity makes the whole floor read a voxel high and the
+  /// floor the chair stands on a step away from it. With this > 0, a column's highest occupied
+  /// voxel that sits directly on another occupied voxel is passed over when it received fewer
+  /// than tail_share times as many points as the voxel below (VoxelGrid::hitMass, every
+  /// point counted) and their mean lies within half a voxel of the mean of the points below
+  /// (a tail hugs its surface): the surface is where the points are. A step's upper surface or
+  /// an obstacle's top puts its points into its own voxel and keeps it, and so does the foot of a
+  /// wall seen edge-on, whose few points spread over its voxel. Only the top voxel is tested,
+  /// once. [0, 1].
+  double tail_share = 0.0;
+  /// Column heights from every point of the surface's voxels (ours; false = the top voxel's
+  /// points, 000 Sec. IV-V). The measured surface height (and the ground height) of a column is
+  /// the mean height of every point (VoxelGrid::massMeanZ, not one per frame, not the closest
+  /// few) of its top voxel and the voxels just below and above it. A surface's stereo noise
+  /// spreads over its voxel and the neighbours; the top voxel alone holds the part above a
+  /// voxel boundary: a floor 5.6 cm below the robot's, whose upper tail reaches the band of the
+  /// robot's floor, read 1.5 cm below it there and was crossed (dev seed 49).
+  bool mass_heights = false;
+  /// With mass_heights, a column's indexed height is the voxel its measured surface lies in
+  /// (never above its highest nor below its lowest occupied voxel) rather than its highest
+  /// occupied voxel (ours; false = 000 Sec. V-A).
+  bool mass_bands = false;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;

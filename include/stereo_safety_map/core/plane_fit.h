@@ -51,6 +51,18 @@ struct PlaneFitConfig {
   /// such a strip got no plane and turned Unknown.) Off by default: on the dev split it moved
   /// FN / FP by less than 0.1 % alone (docs/evaluation.md, "Heights from capped point lists").
   bool observation_means = false;
+  /// Planes at the columns' heights from every point (ours; false = 000 Sec. V-B's lists). Each
+  /// voxel's list points keep their xy spread and are moved in z so that their mean is the
+  /// column's height from every point of the surface's voxels (VoxelGrid::massMeanZ over the
+  /// segment's voxel and those just below and above it, HeightMapConfig::mass_heights): the
+  /// segment's band holds only the part of the surface's noise that falls into it, and Alg. 2
+  /// compares two segments' planes at their border against h_T. Columns whose height lies far
+  /// off the plane (at least l_v / 5) are left out: a band also holds the columns where a lower
+  /// or higher surface's noise reached into it, and with their true
+  /// heights they would tilt the plane across the step they stand for. The fit starts level at
+  /// the columns' median height and keeps, in three passes, the columns within 2.5 robust
+  /// standard deviations of the previous plane.
+  bool mass_heights = false;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -100,7 +112,16 @@ class PlaneFitter {
               std::vector<GroundPlane>* planes) const;
 
  private:
+  GroundPlane fitSegmentMass(const VoxelGrid& grid, const GroundSegments& segments, int k) const;
+  // PlaneFitConfig::mass_heights: a column's centre, height from every point, the shift of its
+  // list's points to that height, and the list. Buffers reused from segment to segment.
+  struct MassColumn {
+    double x, y, z, dz;
+    VoxelPointList list;
+  };
   PlaneFitConfig config_;
+  mutable std::vector<MassColumn> mass_columns_;
+  mutable std::vector<double> mass_residuals_;
 };
 
 }  // namespace stereo_safety_map

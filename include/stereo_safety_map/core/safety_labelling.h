@@ -15,7 +15,16 @@
 namespace stereo_safety_map {
 
 struct SafetyLabellingConfig {
-  double max_slope_deg = 10.0;    ///< theta_max: steeper planes are Non-ground (000, Alg. 2 step 2)
+  double max_slope_deg = 10.0;  ///< theta_max: steeper planes are Non-ground (000, Alg. 2 step 2)
+  /// [deg], [0, theta_max - theta_T]: taken off theta_max where Alg. 2 step 2 judges a plane's
+  /// slope, so that a plane measured within the margin of theta_max is Non-ground (ours; 0 =
+  /// 000), the slope twin of step_height_margin. On the open-world dev split 1 or 2 deg changed
+  /// nothing: the 11-12 deg ramps that read safe there are cells joined to the floor's band,
+  /// not planes measured just under theta_max (docs/evaluation.md, twenty-second session).
+  /// theta_max itself (the ground truth's and the paper's) stays the Inclined cost's upper end.
+  double slope_margin_deg = 0.0;
+  /// theta_max less slope_margin_deg: the steepest measured plane Alg. 2 step 2 lets be safe.
+  double traversableSlope() const { return max_slope_deg - slope_margin_deg; }
   int min_segment_cells = 6;      ///< n_small: smaller segments are Unknown (Alg. 2 step 3)
   double thin_ratio = 0.1;        ///< r_thin: #interior < r_thin #boundary is thin (Alg. 2 step 4)
   double max_step_height = 0.05;  ///< h_T [m]: largest plane height difference crossable (step 17)

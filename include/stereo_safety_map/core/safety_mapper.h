@@ -179,11 +179,13 @@ class SafetyMapper {
   /// The same for a frame taken at time `stamp` [s]: the columns its points fall into are
   /// observed at `stamp` (also when the frame is skipped as stationary: the camera still sees
   /// them), and the map is aged at the latest stamp seen (max_cell_age, observation_age.h).
-  /// A stationary frame may so change the map (FrameResult::cells_aged).
+  /// A stationary frame may so change the map (FrameResult::cells_aged). Points from index
+  /// `first_no_carve` on are occupancy evidence only (VoxelGrid::integrate).
   bool integrateFrame(const std::vector<Eigen::Vector3f>& points_sensor,
                       const Eigen::Isometry3f& T_fixed_sensor,
                       const Eigen::Vector3f& robot_base_position, double stamp,
-                      FrameResult* out = nullptr);
+                      FrameResult* out = nullptr,
+                      std::size_t first_no_carve = VoxelGrid::kAllCarve);
 
   /// f b [px m] of the stereo camera behind the next frames' points (VoxelGrid::
   /// setStereoGeometry, for VoxelGridConfig::neighbour_sigmas); 0 = unknown.
@@ -263,7 +265,8 @@ class SafetyMapper {
                double stamp);
   bool integrate(const std::vector<Eigen::Vector3f>& points_sensor,
                  const Eigen::Isometry3f& T_fixed_sensor,
-                 const Eigen::Vector3f& robot_base_position, double stamp, FrameResult* out);
+                 const Eigen::Vector3f& robot_base_position, double stamp, FrameResult* out,
+                 std::size_t first_no_carve = VoxelGrid::kAllCarve);
 
   // SafetyMapperConfig::obstacle_memory: cells (by their global (u, v)) that held an obstacle,
   // and the band of indexed heights [lo, hi] of their occupied voxels then.

@@ -67,6 +67,13 @@ struct StereoFrameProcessorConfig {
   /// Row gap fill of the disparity before the reprojection (ours, disparity_gap_fill.h): the
   /// safety map's own copy, the disparity() and the disparity nodelet's message stay unfilled.
   RowGapFillConfig row_gap_fill;
+  /// The coarse fill's readings (DisparityPipelineConfig::coarse_fill_levels) carve free space
+  /// like any reading (true, the first rule) or are occupancy evidence alone (false, ours;
+  /// VoxelGrid::integrate's first_no_carve). The coarse window fattens a far surface over a
+  /// near thin edge (a table top, a wall's foot seen edge-on, a curb's edge), and the rays of
+  /// those readings carved the near surface's voxels free (docs/evaluation.md). Without them the
+  /// readings still build the floor's voxels; free space comes from full-resolution rays.
+  bool coarse_free_space = true;
   /// 001's landmark filter in front of the voxel grid (off by default). Its depth range and
   /// stationary-frame thresholds are the mapper's (LandmarkStreamConfig::forMapper()).
   LandmarkStreamConfig landmark_filter;
@@ -134,10 +141,15 @@ class StereoFrameProcessor {
                      StereoFrameResult* result, std::string* error);
 
   /// Same from a CV_32FC1 disparity image (pixels, invalid <= 0 or non-finite) of `camera`.
+  /// `coarse` (optional, CV_32FC1 of the same size, or empty): readings of the coarse fill
+  /// kept apart (coarseDisparity()), integrated after `disparity`'s and, with coarse_free_space
+  /// false, as occupancy evidence alone. The disparity nodelet publishes the merged output, so
+  /// the safety-map nodelet has no coarse image and coarse_free_space false is offline-only.
   bool processDisparity(const cv::Mat& disparity, const StereoCameraModel& camera,
                         const Eigen::Isometry3f& T_fixed_sensor,
                         const Eigen::Vector3f& robot_base_position, double stamp,
-                        StereoFrameResult* result, std::string* error);
+                        StereoFrameResult* result, std::string* error,
+                        const cv::Mat& coarse = cv::Mat());
 
   /// Same from points in the sensor frame (non-finite points are skipped by the grid). The
   /// landmark filter does not run (it works in the image); the obstacle cue does.
@@ -173,6 +185,12 @@ class StereoFrameProcessor {
   /// another processor's processDisparity() to map the same frame again); the points are those
   /// handed to the mapper (after the landmark filter when it ran).
   const cv::Mat& disparity() const { return disparity_; }
+  /// The coarse fill's readings of the last processImages() when coarse_free_space is off
+  /// (empty when it is on, the fill is off or gave none): with them disparity() holds the
+  /// full-resolution readings alone. Pass both to another processor's processDisparity() to map
+  /// the same frame again. With coarse_free_space on, disparity() is the merged output, the
+  /// disparity nodelet's message.
+  const cv::Mat& coarseDisparity() const { return coarse_disparity_; }
   const StereoCameraModel& disparityCamera() const { return disparity_camera_; }
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
 
@@ -197,6 +215,10 @@ class StereoFrameProcessor {
                      StereoFrameResult* r);
   // The shared tail of every entry point: landmark filter (when `camera` is given), mapper,
   // obstacle cue, on points_.
+  // Reprojects `disparity` (and `coarse` after it) into points_, the coarse points from
+  // first_no_carve_ on when coarse_free_space is off.
+  void reproject(const cv::Mat& disparity, const cv::Mat& coarse, const StereoCameraModel& camera,
+                 StereoFrameResult* r);
   bool integrate(const StereoCameraModel* camera, const Eigen::Isometry3f& T_fixed_sensor,
                  const Eigen::Vector3f& robot_base_position, double stamp,
                  StereoFrameResult* result, std::string* error);
@@ -210,6 +232,9 @@ class StereoFrameProcessor {
   std::vector<std::uint8_t> cue_marked_;
   ObstacleCueStats cue_stats_;
   cv::Mat disparity_;
+  cv::Mat coarse_disparity_;                           ///< coarseDisparity()
+  std::size_t first_no_carve_ = VoxelGrid::kAllCarve;  ///< of points_, for the mapper
+  std::vector<Eigen::Vector3f> coarse_points_;         ///< buffer of the coarse reprojection
   cv::Mat filled_;  ///< the row-gap-filled copy that is reprojected (row_gap_fill on)
   std::vector<float> fill_above_;  ///< fillRowGaps' column buffer
   StereoCameraModel disparity_camera_;

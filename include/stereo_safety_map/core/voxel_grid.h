@@ -173,8 +173,16 @@ class VoxelGrid {
   /// Integrates one frame (000 Sec. IV). `points` are in the sensor frame, `T_fixed_sensor`
   /// maps them to the fixed frame; the camera origin is its translation. Only the first point
   /// that falls into a voxel in this frame is used. Non-finite points are skipped.
+  /// Points from index `first_no_carve` on are occupancy evidence alone (ours): the voxel they
+  /// fall in and its aft neighbour get their increments, but their rays decrement nothing and
+  /// give no fore-neighbour increment. For readings whose depth is less certain than their
+  /// presence (the coarse fill of DisparityPipelineConfig::coarse_fill_levels: its window
+  /// fattens a far surface over a near edge, and those rays would carve the near surface's
+  /// voxels free). They come last, so the other points keep their voxels (one per frame).
   IntegrationStats integrate(const std::vector<Eigen::Vector3f>& points,
-                             const Eigen::Isometry3f& T_fixed_sensor);
+                             const Eigen::Isometry3f& T_fixed_sensor,
+                             std::size_t first_no_carve = kAllCarve);
+  static constexpr std::size_t kAllCarve = static_cast<std::size_t>(-1);
 
   /// f b [px m] of the stereo camera whose points integrate() receives, for
   /// VoxelGridConfig::neighbour_sigmas; 0 or non-finite = unknown (incr_L as in 000 Sec. IV).
@@ -194,6 +202,27 @@ class VoxelGrid {
   VoxelMoments moments(const VoxelIndex& i) const;
   /// Points after which the moments fade (VoxelMoments).
   static constexpr float kMomentWindow = 64.0f;
+
+  /// How many of the frames' points fell into the voxel, every one of them, not only the first
+  /// of each frame that 000 Sec. IV integrates (ours, for HeightMapConfig::tail_share): a
+  /// discounted sum over the frames, each frame's count fading by (1 - 1 / kHitMassWindow) per
+  /// integrated frame since. 000's one update per voxel per frame makes a voxel that a surface's
+  /// noise tail reaches with one stray point a frame as occupied as the surface's own voxel,
+  /// which receives hundreds; the counts tell the two apart. 0 outside the window.
+  float hitMass(const VoxelIndex& i) const;
+  /// Mean height [m] of the points behind hitMass() (every point of the frames, faded alike);
+  /// NaN when the voxel has none. Unlike the point list (the closest-first few) and moments()
+  /// (one point per frame), each point weighs the same, so a voxel that a noise tail reaches
+  /// with a few points a frame weighs little beside its neighbour with hundreds.
+  float hitMeanZ(const VoxelIndex& i) const;
+  /// Mean height [m] of every point (hitMass()-weighted, hitMeanZ()) of the voxels w_from ..
+  /// w_to of column (u, v), NaN when they hold none: a surface's stereo noise spreads over
+  /// the voxel it lies in and its neighbours, so the mean over the three around a column's top is
+  /// the surface's height, not that of the part of its noise one voxel happens to hold.
+  float massMeanZ(int u, int v, int w_from, int w_to) const;
+  /// Integrated frames over which hitMass() fades (e-folding), so that a voxel whose surface
+  /// moved follows it.
+  static constexpr float kHitMassWindow = 64.0f;
 
   /// Highest and lowest occupied voxel (LOP >= occ_t) of the column (u, v) among the indexed
   /// heights [w_lo, w_hi] (global indices, clipped to the window). Returns false and leaves the
@@ -236,7 +265,7 @@ class VoxelGrid {
     std::size_t k;  // ring-buffer address when inside
     bool inside;
   };
-  void useEndpoint(const double a[3], const Endpoint& ep, IntegrationStats& stats);
+  void useEndpoint(const double a[3], const Endpoint& ep, bool carve, IntegrationStats& stats);
   void castRay(const double a[3], const double b[3], const int e[3], bool fore_increment,
                IntegrationStats& stats);
   void addIncrement(std::size_t k, int amount);
@@ -255,6 +284,13 @@ class VoxelGrid {
   std::vector<std::uint32_t> stamp_;       // stamp of the frame in which the voxel got its point
   std::vector<std::uint8_t> point_count_;  // points in each voxel's list
   std::vector<VoxelMoments> moments_;      // every point's moments, per voxel
+  std::vector<float> hit_mass_;            // hitMass() as of the frame in mass_frame_
+  std::vector<std::uint32_t> mass_frame_;  // frame_ of the voxel's last hit_mass_ update
+  std::vector<float> hit_frac_;            // hitMass()-weighted sum of the points' height
+                                           // within their voxel, in voxels from its bottom
+  std::vector<std::uint16_t> frame_hits_;  // this frame's points per voxel (saturating)
+  std::vector<float> frame_frac_;          // this frame's sum of those heights
+  std::vector<std::uint32_t> hit_voxels_;  // voxels with points this frame (each once)
   // capacity points per voxel, contiguous; default-initialised (slots past a list's count are
   // never read), so pages are only touched when points arrive
   std::vector<VoxelPoint, detail::DefaultInitAllocator<VoxelPoint>> point_storage_;

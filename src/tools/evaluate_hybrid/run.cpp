@@ -307,8 +307,8 @@ std::string runLandmarks(const std::string& bag, const ssm::StereoFrameProcessor
     }
     const Clock::time_point t1 = Clock::now();
     ssm::StereoFrameResult res_on;
-    const bool ok_on =
-        on.processDisparity(off.disparity(), off.disparityCamera(), T, robot, stamp, &res_on, &err);
+    const bool ok_on = on.processDisparity(off.disparity(), off.disparityCamera(), T, robot, stamp,
+                                           &res_on, &err, off.coarseDisparity());
     LandmarkRun& run = r->on;
     if (res_on.landmark_filter_ran) {
       run.landmark_ms.push_back(res_on.timings.landmark_ms);

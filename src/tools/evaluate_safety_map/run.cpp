@@ -209,7 +209,8 @@ std::string evaluateOffline(const Options& opt, const ssm::StereoFrameProcessorC
           } else {
             ok = s.processor->processDisparity(disp, slots[0].processor->disparityCamera(),
                                                T_fixed_sensor.cast<float>(), robot.cast<float>(),
-                                               stamp.toSec(), &fr, &err);
+                                               stamp.toSec(), &fr, &err,
+                                               slots[0].processor->coarseDisparity());
           }
         }
         FrameRecord rec;
