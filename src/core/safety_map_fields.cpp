@@ -252,7 +252,7 @@ ParamFieldList<M> makeMapperFields() {
       .live(kStage)
       .doc("theta_max: steeper planes are Non-ground (000 Alg. 2 step 2: 10).");
   l.add("slope_margin_deg", &M::labelling, &SafetyLabellingConfig::slope_margin_deg)
-      .closed(0, 90)
+      .closedOpen(0, 90)
       .unit("deg")
       .live(kStage)
       .doc(

@@ -251,6 +251,9 @@ TEST(CoreFieldLists, TheOfflineListIsTheNodeletsCoreLists) {
   expected.push_back("disparity_step");
   for (const std::string& n : ssm::rowGapFillFields().names())
     expected.push_back(n);
+  // Offline only: the disparity nodelet publishes the coarse fill's readings merged, so the
+  // safety-map nodelet cannot keep them apart (StereoFrameProcessorConfig::coarse_free_space).
+  expected.push_back("coarse_free_space");
   for (const std::string& n : ssm::landmarkStreamFields().names())
     expected.push_back(n);
   for (const std::string& n : ssm::disparityPipelineFields().names())
