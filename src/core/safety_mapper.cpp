@@ -174,6 +174,11 @@ bool isRigid(const Eigen::Isometry3f& T) {
          R.determinant() > 0.0f;
 }
 
+// Whether a switch reads VoxelGrid::hitMass() and the means behind it.
+bool readsHitMass(const SafetyMapperConfig& c) {
+  return c.height_map.tail_share > 0.0 || c.height_map.mass_heights || c.plane_fit.mass_heights;
+}
+
 }  // namespace
 
 SafetyMapper::SafetyMapper(const SafetyMapperConfig& config)
@@ -185,6 +190,7 @@ SafetyMapper::SafetyMapper(const SafetyMapperConfig& config)
       labelling_(config_.labelling),
       latest_time_(kNoTime) {
   observation_age_.resize(grid_.sizeU(), grid_.sizeV());
+  grid_.setHitMassTracking(readsHitMass(config_));
 }
 
 std::string SafetyMapper::reconfigure(const SafetyMapperConfig& config, bool* grid_reset) {
@@ -203,6 +209,8 @@ std::string SafetyMapper::reconfigure(const SafetyMapperConfig& config, bool* gr
   plane_fitter_ = std::move(plane_fitter);
   labelling_ = std::move(labelling);
   config_ = config;
+  // Switched on later, the masses start from this frame on.
+  grid_.setHitMassTracking(readsHitMass(config_));
   if (new_grid) {
     observation_age_.resize(grid_.sizeU(), grid_.sizeV());
     reset();

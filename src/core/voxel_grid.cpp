@@ -555,6 +555,7 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
   float* const frame_frac = frame_frac_.data();
   std::uint32_t* const hit_voxels = hit_voxels_.data();
   std::size_t num_hit_voxels = 0;
+  const bool track_mass = track_hit_mass_;
   std::size_t duplicates = 0;
   // |x| below this keeps |x / l_v + 1/2| well inside int (fastFloor's domain); tested on the
   // float so that NaN and inf fail it too.
@@ -602,16 +603,18 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
       if (stamp[k] == now) {
         ++duplicates;
         // Every point counts towards hitMass(), the duplicates too.
-        if (frame_hits[k] != 0xffff) {
+        if (track_mass && frame_hits[k] != 0xffff) {
           ++frame_hits[k];
           frame_frac[k] += static_cast<float>(sz - std::floor(sz));
         }
         continue;
       }
       stamp[k] = now;
-      frame_hits[k] = 1;
-      frame_frac[k] = static_cast<float>(sz - std::floor(sz));
-      hit_voxels[num_hit_voxels++] = static_cast<std::uint32_t>(k);
+      if (track_mass) {
+        frame_hits[k] = 1;
+        frame_frac[k] = static_cast<float>(sz - std::floor(sz));
+        hit_voxels[num_hit_voxels++] = static_cast<std::uint32_t>(k);
+      }
     }
     // Built only here, so that nothing of the rare path is materialised for every point.
     const Endpoint ep{{sx, sy, sz}, {ru, rv, rw}, Eigen::Vector3f(fx, fy, fz), std::sqrt(r2), k,

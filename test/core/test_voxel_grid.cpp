@@ -748,6 +748,13 @@ TEST(VoxelGridPoints, HitMassCountsEveryPointOfTheFrameAndFades) {
   EXPECT_TRUE(std::isnan(g.massMeanZ(11, 0, -1, 1)));
   // The point list still holds one point per frame (000 Sec. IV).
   EXPECT_EQ(g.points(idx(10, 0, 0)).size, 1u);
+  // Not tracked (SafetyMapper when no switch reads it): the same frame adds no mass, and the
+  // occupancy evidence is the same.
+  VoxelGrid untracked(c);
+  untracked.setHitMassTracking(false);
+  untracked.integrate(frame, cameraAt(Vec::Zero()));
+  EXPECT_EQ(untracked.hitMass(idx(10, 0, 0)), 0.0f);
+  EXPECT_EQ(untracked.logOdds(idx(10, 0, 0)), g.logOdds(idx(10, 0, 0)));
   // Frames without points fade the mass by (1 - 1 / kHitMassWindow) each; the mean is kept.
   for (int f = 0; f < 10; ++f)
     g.integrate({Vec(-1.0f, 0.0f, 0.0f)}, cameraAt(Vec::Zero()));

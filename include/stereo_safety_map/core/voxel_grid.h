@@ -223,6 +223,10 @@ class VoxelGrid {
   /// Integrated frames over which hitMass() fades (e-folding), so that a voxel whose surface
   /// moved follows it.
   static constexpr float kHitMassWindow = 64.0f;
+  /// Keep hitMass() (default true); SafetyMapper turns it off when no switch reads it (tail_share,
+  /// mass_heights, plane_mass_heights), so that 000's default path does none of its per-point
+  /// work. While off, integrated frames add nothing to it.
+  void setHitMassTracking(bool on) { track_hit_mass_ = on; }
 
   /// Highest and lowest occupied voxel (LOP >= occ_t) of the column (u, v) among the indexed
   /// heights [w_lo, w_hi] (global indices, clipped to the window). Returns false and leaves the
@@ -284,6 +288,7 @@ class VoxelGrid {
   std::vector<std::uint32_t> stamp_;       // stamp of the frame in which the voxel got its point
   std::vector<std::uint8_t> point_count_;  // points in each voxel's list
   std::vector<VoxelMoments> moments_;      // every point's moments, per voxel
+  bool track_hit_mass_ = true;             // setHitMassTracking()
   std::vector<float> hit_mass_;            // hitMass() as of the frame in mass_frame_
   std::vector<std::uint32_t> mass_frame_;  // frame_ of the voxel's last hit_mass_ update
   std::vector<float> hit_frac_;            // hitMass()-weighted sum of the points' height
