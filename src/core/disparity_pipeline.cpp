@@ -587,7 +587,6 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
   DisparityStats local_stats;
   DisparityStats& st = stats != nullptr ? *stats : local_stats;
   st = DisparityStats();
-  coarse_mask_.release();  // DisparityPipeline::coarseMask(): empty after a failure
   auto fail = [this, error](const std::string& message) {
     if (error != nullptr) *error = message;
     coarse_mask_.release();
@@ -643,6 +642,7 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     const cv::Mat* right_grey = nullptr;
     if (!toGrey(left, &left_grey_, &left_grey, "left", error) ||
         !toGrey(right, &right_grey_, &right_grey, "right", error)) {
+      coarse_mask_.release();  // coarseMask(): empty after a failure
       return false;
     }
     pre.ran = true;
@@ -825,9 +825,9 @@ bool DisparityPipeline::compute(const cv::Mat& left, const cv::Mat& right, cv::M
     }
 
     // --- 6. coarse fill (multi-scale, 000 Sec. III; the rule is ours).
-    coarse_mask_.release();
+    if (config_.coarse_fill_levels <= 0) coarse_mask_.release();  // coarseMask(): empty
     if (config_.coarse_fill_levels > 0) {
-      coarse_mask_.create(size, CV_8UC1);
+      coarse_mask_.create(size, CV_8UC1);  // allocates only when the size changes
       coarse_mask_.setTo(0);
       DisparityStepStats& cf = st.step(DisparityStep::kCoarseFill);
       const Clock::time_point t0 = Clock::now();
