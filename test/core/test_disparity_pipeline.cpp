@@ -714,13 +714,20 @@ TEST(DisparityPipeline, CoarseFillFindsAWeakSmoothTextureUnderNoise) {
   EXPECT_EQ(stats.valid, countValidDisparities(disparity));
 }
 
-TEST(DisparityPipeline, CoarseFillKeepsAStepAJump) {
-  // A depth step along the image column: the upper half at disparity 12, the lower at 24, both
-  // with the weak texture under noise. The fill must give one of the two, never a slope between.
+// A depth step along the image column: the upper half at disparity 12, the lower at 24, both
+// with the weak texture under noise 3.
+Scene weakStepScene() {
   Scene scene = render(
       {Layer{cv::Rect(0, 0, kTextureCols, kRows / 2), 12, weakTexture(8, 3.0, 5.0)},
        Layer{cv::Rect(0, kRows / 2, kTextureCols, kRows / 2), 24, weakTexture(9, 3.0, 5.0)}});
   addNoise(&scene, 3.0, 12);
+  return scene;
+}
+
+TEST(DisparityPipeline, CoarseFillKeepsAStepAJump) {
+  // A depth step along the image column: the upper half at disparity 12, the lower at 24, both
+  // with the weak texture under noise. The fill must give one of the two, never a slope between.
+  const Scene scene = weakStepScene();
   DisparityPipelineConfig config;
   config.coarse_fill_levels = 1;
   DisparityPipeline pipeline(config);
@@ -745,10 +752,7 @@ TEST(DisparityPipeline, CoarseFillReachesOnlyAsFarAsItsMinimumDisparity) {
   // The two surfaces of the step above (disparity 12 and 24) with coarse_fill_max_depth 1 m for a
   // camera of f b = 18 px m (the reach at disparity 18): the near surface is filled as before,
   // the far one keeps only its full-resolution readings; without f b the fill reaches both.
-  Scene scene = render(
-      {Layer{cv::Rect(0, 0, kTextureCols, kRows / 2), 12, weakTexture(8, 3.0, 5.0)},
-       Layer{cv::Rect(0, kRows / 2, kTextureCols, kRows / 2), 24, weakTexture(9, 3.0, 5.0)}});
-  addNoise(&scene, 3.0, 12);
+  const Scene scene = weakStepScene();
   DisparityPipelineConfig config;
   config.coarse_fill_levels = 1;
   DisparityPipeline fine_pipeline(DisparityPipelineConfig{}), all(config);
