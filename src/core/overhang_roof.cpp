@@ -23,7 +23,9 @@ int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
                             const Eigen::Vector3f& camera, float base_z,
                             const OverhangRoofConfig& config, SafetyMap* map,
                             OverhangRoofScratch* scratch) {
-  if (map == nullptr || scratch == nullptr || !config.enabled) return 0;
+  if (map == nullptr || scratch == nullptr) return 0;
+  scratch->marks.clear();
+  if (!config.enabled) return 0;
   SafetyMap& m = *map;
   const int n = hm.numCells();
   const int width = hm.width();
@@ -86,20 +88,26 @@ int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
         std::isfinite(hm.surfaceHeightAtIndex(c)) ? hm.surfaceHeightAtIndex(c) : base_z;
     // A front edge within max_span before the cell: an overhang column between it and the
     // camera whose top the sight line to the cell's floor passes below.
-    bool under = false;
+    int roof = -1;
     for (double s = d - step; s > std::max(0.0, d - config.max_span); s -= step) {
       const int e = cellAt(camera.x() + ex * s, camera.y() + ey * s);
       if (e < 0 || e == c || !std::isfinite(roof_z[e])) continue;
       const double z_line = camera.z() + (zc - camera.z()) * (s / d);
       if (z_line < roof_z[e]) {
-        under = true;
+        roof = e;
         break;
       }
     }
-    if (!under) continue;
+    if (roof < 0) continue;
     m.labels[c] = SafetyLabel::kNonGround;
     m.drop_off[c] = 0;
     ++marked;
+    OverhangRoofMark mark;
+    mark.cell = c;
+    mark.roof_u = hm.minU() + roof % width;
+    mark.roof_v = hm.minV() + roof / width;
+    mark.roof_w = hm.atIndex(roof);
+    scratch->marks.push_back(mark);
   }
   return marked;
 }

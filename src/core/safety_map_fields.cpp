@@ -495,6 +495,12 @@ ParamFieldList<M> makeMapperFields() {
       .doc(
           "overhang_roof: voxels below an overhang column's top that rays must have observed "
           "free (ours).");
+  l.add("overhang_roof_memory", &M::overhang_roof, &OverhangRoofConfig::remember)
+      .doc(
+          "overhang_roof with obstacle_memory: a cell marked as floor under a roof stays "
+          "Non-ground while the top voxel of the roof column that marked it stays occupied, "
+          "whatever the later lines of sight (ours; false = marked from the last frame's view "
+          "only).");
   l.setValidator(mapperParameterError);
   return l;
 }

@@ -299,6 +299,7 @@ Eigen::Isometry3f SafetyMapper::relevelPose(const std::vector<Eigen::Vector3f>& 
 void SafetyMapper::reset() {
   grid_.clear();
   obstacle_memory_.clear();
+  roof_memory_.clear();
   cells_remembered_ = 0;
   observation_age_.clear();
   latest_time_ = kNoTime;
@@ -513,6 +514,36 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   }
   for (const std::int64_t k : memory_drop_)
     obstacle_memory_.erase(k);
+
+  // OverhangRoofConfig::remember: the floor seen under a roof keeps Non-ground while the roof
+  // column's top voxel that marked it stays occupied; rays that clear that voxel (000 Sec. IV)
+  // are the free-space evidence that forgets it. A cell marked again takes its latest roof.
+  if (!config_.overhang_roof.remember) {
+    roof_memory_.clear();
+    return;
+  }
+  for (const OverhangRoofMark& r : overhang_scratch_.marks) {
+    const int u = m.min_u + r.cell % m.width, v = m.min_v + r.cell / m.width;
+    roof_memory_[key(u, v)] = RoofMark{r.roof_u, r.roof_v, r.roof_w};
+  }
+  memory_drop_.clear();
+  for (const auto& [k, roof] : roof_memory_) {
+    const int u = static_cast<int>(k >> 32);
+    const int v = static_cast<int>(static_cast<std::int32_t>(k & 0xffffffff));
+    if (!m.inside(u, v) || grid_.logOdds(VoxelIndex{roof.u, roof.v, roof.w}) <= clear_lop) {
+      memory_drop_.push_back(k);
+      continue;
+    }
+    const int c = m.index(u, v);
+    if (m.labels[c] == SafetyLabel::kNonGround || m.labels[c] == SafetyLabel::kUnexamined) {
+      continue;
+    }
+    m.labels[c] = SafetyLabel::kNonGround;
+    m.drop_off[c] = 0;
+    ++cells_remembered_;
+  }
+  for (const std::int64_t k : memory_drop_)
+    roof_memory_.erase(k);
 }
 
 const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_base_position) {
@@ -557,6 +588,7 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   }
   // SafetyMapperConfig::overhang_roof: seen from the last frame's camera.
   cells_under_overhangs_ = 0;
+  overhang_scratch_.marks.clear();
   if (config_.overhang_roof.enabled && finite) {
     cells_under_overhangs_ =
         markFloorUnderOverhangs(grid_, height_map_, last_camera_, robot_base_position.z(),

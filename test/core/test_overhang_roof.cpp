@@ -91,7 +91,16 @@ TEST(OverhangRoofConfig, Validate) {
 TEST(OverhangRoof, TheFloorSeenUnderATableTopIsNonGround) {
   World w;
   w.tableEdges();
-  EXPECT_GT(w.run(), 0);
+  const int marked = w.run();
+  EXPECT_GT(marked, 0);
+  // Each marked cell is listed with the edge column that roofs it (for the obstacle memory).
+  ASSERT_EQ(static_cast<int>(w.scratch.marks.size()), marked);
+  for (const OverhangRoofMark& r : w.scratch.marks) {
+    EXPECT_EQ(w.map.labels[r.cell], SafetyLabel::kNonGround);
+    EXPECT_TRUE(r.roof_u == 20 || r.roof_u == 28) << r.roof_u;
+    EXPECT_EQ(r.roof_w, 8);
+    EXPECT_LT(r.roof_u, w.map.min_u + r.cell % w.map.width);
+  }
   // Under the top, on the camera's line of sight: Non-ground; and behind the last edge seen, up
   // to max_span (1 m) behind it: its depth is not known.
   for (int u = 21; u <= 27; ++u)
@@ -159,8 +168,11 @@ TEST(OverhangRoof, OffOrWithoutACameraChangesNothing) {
   w.config.enabled = false;
   EXPECT_EQ(w.run(), 0);
   w.config.enabled = true;
+  EXPECT_GT(w.run(), 0);
+  EXPECT_FALSE(w.scratch.marks.empty());
   w.camera = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   EXPECT_EQ(w.run(), 0);
+  EXPECT_TRUE(w.scratch.marks.empty());  // the last call's marks only
   EXPECT_EQ(w.at(24, 0), SafetyLabel::kLevel);
 }
 

@@ -1136,6 +1136,60 @@ TEST(SafetyMapperOverhangRoof, OnByDefaultOffInThePapersConfiguration) {
   EXPECT_NE(bad.validate().find("overhang_roof_max_span"), std::string::npos);
 }
 
+// OverhangRoofConfig::remember: a flat floor driven over to x = 0 (camera 1.1 m up), then a table
+// top's front edge put into the grid at x = 1.6 m, |y| <= 0.3 m, 0.8 m high, with rays observed
+// passing below it. The floor seen under it is Non-ground (overhang_roof). A later view from which
+// the rule no longer reaches those cells (here: max_span cut to 0.15 m) keeps them Non-ground while
+// the roof's top voxel stays occupied; rays clearing that voxel forget them. Without `remember`
+// they follow the last view at once.
+TEST(SafetyMapperOverhangRoof, TheFloorUnderARoofStaysNonGroundWhileTheRoofStands) {
+  EXPECT_TRUE(SafetyMapperConfig().overhang_roof.remember);
+  const std::vector<Frame> frames = drive(World());
+  for (const bool remember : {false, true}) {
+    SafetyMapperConfig c;
+    c.max_cell_age = 0.0;
+    c.overhang_roof.remember = remember;
+    const auto m = run(frames, c);
+    const Eigen::Vector3f robot = frames.back().robot;
+    ASSERT_EQ(labelAt(m->safetyMap(), 2.2, 0.0), L::kLevel) << ascii(m->safetyMap());
+    VoxelGrid& g = m->grid();
+    const std::int32_t w_base = g.indexOf(robot).w;
+    std::vector<VoxelIndex> tops;
+    for (double y = -0.3; y <= 0.31; y += 0.1) {
+      const VoxelIndex top = g.indexOf(Eigen::Vector3f(1.6f, static_cast<float>(y), 0.8f));
+      g.setLogOdds(top, 200);
+      for (std::int32_t w = w_base + 2; w < top.w; ++w)
+        g.setLogOdds(VoxelIndex{top.u, top.v, w}, -20);
+      tops.push_back(top);
+    }
+    m->computeSafetyMap(robot);
+    EXPECT_GT(m->cellsUnderOverhangs(), 0);
+    for (const double x : {1.8, 2.0, 2.2, 2.4})
+      EXPECT_EQ(labelAt(m->safetyMap(), x, 0.0), L::kNonGround) << x << ascii(m->safetyMap());
+    EXPECT_EQ(labelAt(m->safetyMap(), 2.9, 0.0), L::kLevel) << ascii(m->safetyMap());
+    EXPECT_EQ(m->roofMemorySize() > 0, remember);
+
+    // The view changes: the rule reaches only the cell right behind the edge.
+    SafetyMapperConfig near_view = m->config();
+    near_view.overhang_roof.max_span = 0.15;
+    ASSERT_EQ(m->reconfigure(near_view), "");
+    m->computeSafetyMap(robot);
+    for (const double x : {2.0, 2.2, 2.4}) {
+      EXPECT_EQ(labelAt(m->safetyMap(), x, 0.0), remember ? L::kNonGround : L::kLevel)
+          << remember << " " << x << ascii(m->safetyMap());
+    }
+    EXPECT_EQ(m->cellsRemembered() > 0, remember);
+
+    // Free space observed where the roof was: forgotten, the floor is Level again.
+    for (const VoxelIndex& top : tops)
+      g.setLogOdds(top, -10);
+    m->computeSafetyMap(robot);
+    for (const double x : {1.8, 2.0, 2.2, 2.4})
+      EXPECT_EQ(labelAt(m->safetyMap(), x, 0.0), L::kLevel) << x << ascii(m->safetyMap());
+    EXPECT_EQ(m->roofMemorySize(), 0u);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Re-levelling on the ground the chair stands on (FrameLevellingConfig::near_radius and
 // filter_frames): a camera whose true pitch is 1 deg further down than the pose says.

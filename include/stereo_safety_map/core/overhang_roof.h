@@ -21,6 +21,13 @@
 // (occupied further down, or never reached below the top) is none. The line of sight is that
 // of the last integrated frame. Requiring the top's back edge as well (tried on the open-world
 // dev split) almost never fired.
+//
+// Object permanence for the floor under a roof (`remember`, ours): the line of sight moves with
+// the robot, and a cell whose floor was seen under a front edge from one place is seen past it, or
+// not at all (hidden by the top), from nearer. With SafetyMapperConfig::obstacle_memory a marked
+// cell keeps Non-ground for as long as the top voxel of the roof column that marked it stays
+// occupied (issue 15, "object permanence": until free space is observed where the obstacle was):
+// rays that clear the roof's own voxel are the free-space evidence that forgets it.
 #pragma once
 
 #include "stereo_safety_map/core/height_map.h"
@@ -40,19 +47,28 @@ struct OverhangRoofConfig {
   double min_clearance = 0.3;  ///< a roof's top stands at least this above the base [m]
   double max_span = 1.0;       ///< floor this far behind a front edge is under the top [m]
   int min_free_voxels = 2;     ///< voxels observed free below an overhang column's top
+  bool remember = true;        ///< marked cells join the obstacle memory (see above; ours)
 
   std::string validate() const;
+};
+
+/// A cell marked by markFloorUnderOverhangs() and the roof column that marked it (grid indices).
+struct OverhangRoofMark {
+  int cell = -1;                                    ///< index of the marked cell in the map
+  std::int32_t roof_u = 0, roof_v = 0, roof_w = 0;  ///< the roof column's top voxel
 };
 
 /// Buffers reused from frame to frame.
 struct OverhangRoofScratch {
   std::vector<float> roof_z;  ///< per cell: the overhang column's top [m], NaN when none
   std::vector<std::int32_t> top_w;
+  std::vector<OverhangRoofMark> marks;  ///< the last call's marked cells, in cell order
 };
 
 /// Marks the safe cells of `map` (laid out as `hm`) whose floor `camera` (fixed frame) sees
 /// under an overhang's top (see above) Non-ground, clearing their drop-off flag.
-/// `base_z` is the robot base's height. Returns the number of cells marked.
+/// `base_z` is the robot base's height. Returns the number of cells marked; scratch->marks lists
+/// them with their roof columns.
 int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
                             const Eigen::Vector3f& camera, float base_z,
                             const OverhangRoofConfig& config, SafetyMap* map,

@@ -215,6 +215,8 @@ class SafetyMapper {
   /// Cells the obstacle memory holds (those it keeps Non-ground and those the labelling calls
   /// Non-ground itself).
   std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
+  /// Cells the memory holds as floor seen under a roof (OverhangRoofConfig::remember).
+  std::size_t roofMemorySize() const { return roof_memory_.size(); }
   /// Safe cells of the current map turned Unknown by aging since it was computed.
   std::size_t cellsAged() const { return cells_aged_; }
   /// Latest frame stamp / aging time seen; NaN when none since the start or the last reset.
@@ -275,6 +277,14 @@ class SafetyMapper {
     std::int32_t hi;
   };
   std::unordered_map<std::int64_t, ObstacleMark> obstacle_memory_;
+  // OverhangRoofConfig::remember: cells (global (u, v)) marked as floor under a roof, with the
+  // top voxel of the roof column that marked them last.
+  struct RoofMark {
+    std::int32_t u;
+    std::int32_t v;
+    std::int32_t w;
+  };
+  std::unordered_map<std::int64_t, RoofMark> roof_memory_;
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
