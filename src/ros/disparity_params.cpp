@@ -20,6 +20,8 @@ std::string DisparityRosConfig::validate() const {
     os << "cloud_max_depth = " << cloud_max_depth << " must be in (0, 1000]";
   } else if (!(min_image_contrast >= 0.0 && min_image_contrast <= 128.0)) {
     os << "min_image_contrast = " << min_image_contrast << " must be in [0, 128]";
+  } else if (frame_queue < 1 || frame_queue > 10) {
+    os << "frame_queue = " << frame_queue << " must be in [1, 10]";
   }
   return os.str();
 }
@@ -46,6 +48,14 @@ const ParamFieldList<DisparityRosConfig>& disparityRosFields() {
         .doc(
             "refuse a pair in which an image repeats the previous one byte for byte (a frozen "
             "camera or driver); false for noiseless simulators.");
+    l.add("frame_queue", &R::frame_queue)
+        .closed(1, 10)
+        .unit("pairs")
+        .doc(
+            "stereo pairs that may wait for the matcher: 1 = the newest only (a pair arriving "
+            "while one waits replaces it); 2 absorbs one pair that took longer than the camera "
+            "period (the manager's other nodelets had the cores) instead of dropping it, at one "
+            "frame of latency then (ours).");
     l.addExternal("diagnostic_period", 1.0).unit("s").doc("diagnostic_updater's period.");
     l.setValidator([](const R& c) { return c.validate(); });
     return l;

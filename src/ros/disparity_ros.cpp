@@ -83,6 +83,7 @@ DisparityRos::DisparityRos(ros::NodeHandle nh, ros::NodeHandle pnh) : FrameNodel
   reconfigure_.start(
       pnh_, [this](DisparityConfig& config, std::uint32_t level) { reconfigureCb(config, level); });
 
+  slot_.setCapacity(static_cast<std::size_t>(ros_config_.frame_queue));
   startWorker([this](const Frame& frame) { processFrame(frame); }, [] { return 0.0; });
 
   // Monitor whether anyone listens; connectCb must not run between advertising and assigning
@@ -165,7 +166,7 @@ void DisparityRos::imageCb(const sensor_msgs::ImageConstPtr& left_image,
   }
   if (dropped && problems_.shouldLog(kDroppedReason)) {
     ROS_WARN_STREAM(name_ << ": stereo frames arrive faster than the disparity is computed: the "
-                             "waiting frame was replaced by a newer one ("
+                             "oldest waiting frame was dropped for a newer one ("
                           << total_dropped << " dropped so far; reduce the camera rate, "
                           << "num_disparities or the image size, or use matcher bm)");
   }

@@ -1,4 +1,4 @@
-// FrameSlot (frame_slot.h): the one-slot queue between a nodelet's callbacks and its worker.
+// FrameSlot (frame_slot.h): the frame queue between a nodelet's callbacks and its worker.
 #include "stereo_safety_map/ros/frame_slot.h"
 
 #include <gtest/gtest.h>
@@ -31,6 +31,43 @@ TEST(FrameSlot, TheNewestFrameWinsAndReplacingIsReported) {
   ASSERT_TRUE(f);
   EXPECT_EQ(f->id, 2);
   EXPECT_EQ(slot.put(frame(3)), Slot::Put::kQueued);  // the slot was emptied by take()
+}
+
+TEST(FrameSlot, TwoSlotsKeepOneLateFrameAndDropTheOldestWhenFull) {
+  Slot slot;
+  EXPECT_EQ(slot.capacity(), 1u);
+  slot.setCapacity(2);
+  EXPECT_EQ(slot.capacity(), 2u);
+  EXPECT_EQ(slot.put(frame(1)), Slot::Put::kQueued);
+  EXPECT_EQ(slot.put(frame(2)), Slot::Put::kQueued);    // absorbed, not dropped
+  EXPECT_EQ(slot.put(frame(3)), Slot::Put::kReplaced);  // full: 1, the oldest, is dropped
+  auto f = slot.take(0.0, Slot::Clock::now());
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 2);  // oldest first
+  f = slot.take(0.0, Slot::Clock::now());
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 3);
+  // Shrinking drops the oldest waiting frames; 0 is taken as 1.
+  slot.put(frame(4));
+  slot.put(frame(5));
+  slot.setCapacity(0);
+  EXPECT_EQ(slot.capacity(), 1u);
+  f = slot.take(0.0, Slot::Clock::now());
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 5);
+}
+
+TEST(FrameSlot, AThrottledTakeReturnsTheNewestAndCountsTheOlder) {
+  Slot slot;
+  slot.setCapacity(3);
+  slot.put(frame(1));
+  slot.put(frame(2));
+  slot.put(frame(3));
+  std::size_t discarded = 0;
+  const auto f = slot.take(1000.0, Slot::Clock::now(), &discarded);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->id, 3);
+  EXPECT_EQ(discarded, 2u);
 }
 
 TEST(FrameSlot, AcceptDecidesUnderTheLockAndSeesTheWaitingFrame) {

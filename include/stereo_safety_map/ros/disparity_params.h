@@ -34,6 +34,10 @@ struct DisparityRosConfig {
   /// byte for byte are refused unless reject_frozen_images is false.
   double min_image_contrast = 2.0;
   bool reject_frozen_images = true;
+  /// Stereo pairs that may wait for the worker (frame_slot.h), [1, 10]: 1 = the newest pair
+  /// only; 2 (default) absorbs one pair that took longer than the camera period instead of
+  /// dropping it, at one frame of latency then (issue 18).
+  int frame_queue = 2;
 
   std::string validate() const;
 };

@@ -1,16 +1,23 @@
-// The one-slot frame queue between a nodelet's message callbacks and its worker thread.
+// The frame queue between a nodelet's message callbacks and its worker thread.
 //
-// Callbacks put() a frame and never wait for the pipeline; the worker take()s it. A frame that
-// arrives while another waits replaces it (put() says so, the nodelet counts it as dropped): the
-// newest frame wins and the latency stays one frame. max_rate throttles by letting the slot be
-// overwritten while the worker waits for its next start. stop() wakes the worker for good.
+// Callbacks put() a frame and never wait for the pipeline; the worker take()s it. The queue holds
+// capacity() frames (1 by default, setCapacity()). A frame that arrives while the queue is full
+// replaces the oldest waiting one (put() says so, the nodelet counts it as dropped): with one
+// slot the newest frame wins and the latency stays one frame; with two, one frame whose
+// processing took longer than the camera period (the other nodelets of the manager had the
+// cores) is absorbed instead of dropped, at one frame of latency then. The worker takes the
+// oldest waiting frame. max_rate throttles: while the worker waits for its next start, frames
+// replace the waiting ones and take() returns the newest, dropping the older (counted by
+// take()'s `discarded`). stop() wakes the worker for good.
 //
-// Thread-safe. putIf()'s `accept` runs under the slot's lock, so that state deciding the order
-// of frames (e.g. the newest stamp) changes with the slot, atomically.
+// Thread-safe. putIf()'s `accept` runs under the queue's lock, so that state deciding the order
+// of frames (e.g. the newest stamp) changes with the queue, atomically.
 #pragma once
 
 #include <chrono>
 #include <condition_variable>
+#include <cstddef>
+#include <deque>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -25,40 +32,66 @@ class FrameSlot {
   using Clock = std::chrono::steady_clock;
   enum class Put { kQueued, kReplaced, kRefused, kStopped };
 
-  /// Puts `frame` into the slot, replacing a waiting one: kQueued, kReplaced or kStopped.
+  /// How many frames may wait, >= 1 (smaller values are taken as 1). Frames waiting beyond a
+  /// smaller capacity are dropped, the oldest first.
+  void setCapacity(std::size_t capacity) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    capacity_ = capacity < 1 ? 1 : capacity;
+    while (queue_.size() > capacity_)
+      queue_.pop_front();
+  }
+  std::size_t capacity() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return capacity_;
+  }
+
+  /// Puts `frame` into the queue: kQueued, kReplaced (the queue was full: the oldest waiting frame
+  /// was dropped) or kStopped.
   Put put(std::unique_ptr<Frame> frame) {
     return putIf(std::move(frame), [](Frame&, const Frame*) { return true; });
   }
 
-  /// As put(), if accept(frame, waiting frame or nullptr) says yes (else kRefused). `accept`
-  /// runs under the slot's lock and may change the incoming frame.
+  /// As put(), if accept(frame, newest waiting frame or nullptr) says yes (else kRefused).
+  /// `accept` runs under the queue's lock and may change the incoming frame.
   template <class Accept>
   Put putIf(std::unique_ptr<Frame> frame, Accept&& accept) {
     Put result;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (stop_) return Put::kStopped;
-      if (!accept(*frame, slot_.get())) return Put::kRefused;
-      result = slot_ ? Put::kReplaced : Put::kQueued;
-      slot_ = std::move(frame);
+      if (!accept(*frame, queue_.empty() ? nullptr : queue_.back().get())) return Put::kRefused;
+      result = Put::kQueued;
+      if (queue_.size() >= capacity_) {
+        queue_.pop_front();
+        result = Put::kReplaced;
+      }
+      queue_.push_back(std::move(frame));
     }
     cv_.notify_one();
     return result;
   }
 
-  /// Waits for a frame; with max_rate > 0 not before 1 / max_rate s after `last_start` (frames
-  /// arriving meanwhile replace the waiting one). nullptr once stop() was called.
-  std::unique_ptr<Frame> take(double max_rate, Clock::time_point last_start) {
+  /// Waits for a frame and returns the oldest waiting one; with max_rate > 0 not before
+  /// 1 / max_rate s after `last_start`, and then the newest, the older ones dropped (their number
+  /// added to *discarded when given). nullptr once stop() was called.
+  std::unique_ptr<Frame> take(double max_rate, Clock::time_point last_start,
+                              std::size_t* discarded = nullptr) {
     std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [this] { return stop_ || slot_; });
+    cv_.wait(lock, [this] { return stop_ || !queue_.empty(); });
     if (stop_) return nullptr;
     if (max_rate > 0.0) {
       const auto next = last_start + std::chrono::duration_cast<Clock::duration>(
                                          std::chrono::duration<double>(1.0 / max_rate));
       cv_.wait_until(lock, next, [this] { return stop_; });
       if (stop_) return nullptr;
+      while (queue_.size() > 1) {
+        queue_.pop_front();
+        if (discarded != nullptr) ++*discarded;
+      }
     }
-    return std::move(slot_);
+    std::unique_ptr<Frame> frame = std::move(queue_.front());
+    queue_.pop_front();
+    return frame;
   }
 
   /// The worker's loop, until stop(): take() at max_rate() frames per second at most (0: no
@@ -86,9 +119,10 @@ class FrameSlot {
   }
 
  private:
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable cv_;
-  std::unique_ptr<Frame> slot_;
+  std::deque<std::unique_ptr<Frame>> queue_;
+  std::size_t capacity_ = 1;
   bool stop_ = false;
 };
 
