@@ -486,34 +486,35 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       mark.hi = std::max(mark.hi, hi);
     }
   }
-  // Remembered cells: forgotten once free space was observed there (every voxel of the band at
-  // or below occ_threshold - obstacle_memory_clear_margin) or out of the window; otherwise
-  // Non-ground whatever the labelling says.
-  memory_drop_.clear();
-  for (const auto& [k, mark] : obstacle_memory_) {
-    const int u = static_cast<int>(k >> 32);
-    const int v = static_cast<int>(static_cast<std::int32_t>(k & 0xffffffff));
-    if (!m.inside(u, v)) {
-      memory_drop_.push_back(k);
-      continue;
+  // A memory's cells: forgotten once out of the window or when holds(u, v, mark) says the
+  // evidence is gone; otherwise Non-ground whatever the labelling says.
+  auto apply = [&](auto& memory, auto&& holds) {
+    memory_drop_.clear();
+    for (const auto& [k, mark] : memory) {
+      const int u = static_cast<int>(k >> 32);
+      const int v = static_cast<int>(static_cast<std::int32_t>(k & 0xffffffff));
+      if (!m.inside(u, v) || !holds(u, v, mark)) {
+        memory_drop_.push_back(k);
+        continue;
+      }
+      const int c = m.index(u, v);
+      if (m.labels[c] == SafetyLabel::kNonGround || m.labels[c] == SafetyLabel::kUnexamined) {
+        continue;
+      }
+      m.labels[c] = SafetyLabel::kNonGround;
+      m.drop_off[c] = 0;
+      ++cells_remembered_;
     }
-    bool held = false;
-    for (std::int32_t w = mark.lo; w <= mark.hi && !held; ++w)
-      held = grid_.logOdds(VoxelIndex{u, v, w}) > clear_lop;
-    if (!held) {
-      memory_drop_.push_back(k);
-      continue;
-    }
-    const int c = m.index(u, v);
-    if (m.labels[c] == SafetyLabel::kNonGround || m.labels[c] == SafetyLabel::kUnexamined) {
-      continue;
-    }
-    m.labels[c] = SafetyLabel::kNonGround;
-    m.drop_off[c] = 0;
-    ++cells_remembered_;
-  }
-  for (const std::int64_t k : memory_drop_)
-    obstacle_memory_.erase(k);
+    for (const std::int64_t k : memory_drop_)
+      memory.erase(k);
+  };
+  // Obstacle columns: free space observed there is every voxel of the band at or below
+  // occ_threshold - obstacle_memory_clear_margin.
+  apply(obstacle_memory_, [&](int u, int v, const ObstacleMark& mark) {
+    for (std::int32_t w = mark.lo; w <= mark.hi; ++w)
+      if (grid_.logOdds(VoxelIndex{u, v, w}) > clear_lop) return true;
+    return false;
+  });
 
   // OverhangRoofConfig::remember: the floor seen under a roof keeps Non-ground while the roof
   // column's top voxel that marked it stays occupied; rays that clear that voxel (000 Sec. IV)
@@ -526,24 +527,9 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
     const int u = m.min_u + r.cell % m.width, v = m.min_v + r.cell / m.width;
     roof_memory_[key(u, v)] = RoofMark{r.roof_u, r.roof_v, r.roof_w};
   }
-  memory_drop_.clear();
-  for (const auto& [k, roof] : roof_memory_) {
-    const int u = static_cast<int>(k >> 32);
-    const int v = static_cast<int>(static_cast<std::int32_t>(k & 0xffffffff));
-    if (!m.inside(u, v) || grid_.logOdds(VoxelIndex{roof.u, roof.v, roof.w}) <= clear_lop) {
-      memory_drop_.push_back(k);
-      continue;
-    }
-    const int c = m.index(u, v);
-    if (m.labels[c] == SafetyLabel::kNonGround || m.labels[c] == SafetyLabel::kUnexamined) {
-      continue;
-    }
-    m.labels[c] = SafetyLabel::kNonGround;
-    m.drop_off[c] = 0;
-    ++cells_remembered_;
-  }
-  for (const std::int64_t k : memory_drop_)
-    roof_memory_.erase(k);
+  apply(roof_memory_, [&](int, int, const RoofMark& roof) {
+    return grid_.logOdds(VoxelIndex{roof.u, roof.v, roof.w}) > clear_lop;
+  });
 }
 
 const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_base_position) {
