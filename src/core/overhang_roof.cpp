@@ -106,7 +106,16 @@ int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
     mark.cell = c;
     mark.roof_u = hm.minU() + roof % width;
     mark.roof_v = hm.minV() + roof / width;
+    // The roof column's highest occupied voxel: the indexed height can lie below it
+    // (HeightMapConfig::mass_bands puts it where the points' mean lies), and the memory must
+    // watch a voxel that is occupied, or it forgets the mark at once.
     mark.roof_w = hm.atIndex(roof);
+    for (std::int32_t k = std::max(hm.topIndex(), mark.roof_w); k > mark.roof_w; --k) {
+      if (grid.isOccupied(VoxelIndex{mark.roof_u, mark.roof_v, k})) {
+        mark.roof_w = k;
+        break;
+      }
+    }
     scratch->marks.push_back(mark);
   }
   return marked;

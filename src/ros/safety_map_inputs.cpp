@@ -1,8 +1,8 @@
 // SafetyMapRos's inputs (safety_map_ros.h, "Threading model"): the shared stereo input
 // (stereo_input.h: the subscribers' checks of each message, the tf2 MessageFilter, the stamp
 // matcher or approximate sync, the tf wait measurement), and enqueue(), which puts a checked frame
-// into the worker's one-slot queue (frame_slot.h). What the worker does with a frame is in
-// safety_map_ros.cpp.
+// into the worker's queue (frame_slot.h, `frame_queue` frames). What the worker does with a frame
+// is in safety_map_ros.cpp.
 #include "stereo_safety_map/ros/safety_map_ros.h"
 
 #include <sstream>
@@ -44,7 +44,7 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
   }
   std::string out_of_order;
   // Under the slot's lock: newest_stamp_ changes with the slot.
-  const auto put = slot_.putIf(std::move(frame), [&](Frame& incoming, const Frame* waiting) {
+  const auto put = slot_.putIf(std::move(frame), [&](Frame& incoming, const Frame*) {
     const ros::Time stamp = incoming.header.stamp;
     if (!newest_stamp_.isZero() && stamp <= newest_stamp_) {
       // Time went back. A restart (a bag played again) moves the clock back as well: the map is
@@ -70,8 +70,7 @@ void SafetyMapRos::enqueue(std::unique_ptr<Frame> frame) {
       }
     }
     newest_stamp_ = stamp;
-    // A waiting restart is not lost with the frame that carries it.
-    if (waiting && waiting->reset_map) incoming.reset_map = true;
+    // A waiting restart dropped by the queue passes to the frame after it (slot_'s carry).
     return true;
   });
   if (put == FrameSlot<Frame>::Put::kStopped) return;

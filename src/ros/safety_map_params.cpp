@@ -37,6 +37,8 @@ std::string SafetyMapRosConfig::validate() const {
     os << "save_prefix is empty, must be a path prefix such as map (under save_directory)";
   } else if (!std::isfinite(max_tf_wait) || max_tf_wait <= 0.0 || max_tf_wait > 3600.0) {
     os << "max_tf_wait = " << max_tf_wait << ", must be in (0, 3600] s";
+  } else if (frame_queue < 1 || frame_queue > 10) {
+    os << "frame_queue = " << frame_queue << ", must be in [1, 10]";
   } else if (!std::isfinite(stale_input_timeout) || stale_input_timeout <= 0.0 ||
              stale_input_timeout > 3600.0) {
     os << "stale_input_timeout = " << stale_input_timeout << ", must be in (0, 3600] s";
@@ -85,6 +87,14 @@ const ParamFieldList<SafetyMapRosConfig>& safetyMapRosFields() {
         .doc(
             "a frame whose transform arrived later than this after the frame is dropped (tf "
             "stalled: its pose would be interpolated across the gap).");
+    l.add("frame_queue", &R::frame_queue)
+        .closed(1, 10)
+        .unit("frames")
+        .doc(
+            "frames that may wait for the mapper: 1 = the newest only (a frame arriving while "
+            "one waits replaces it); 2 absorbs one frame whose map took longer than the camera "
+            "period (the manager's other nodelets had the cores) instead of dropping it, at one "
+            "frame of latency then. A dropped frame's map reset passes to the next (ours).");
     l.add("reject_frozen_input", &R::reject_frozen_input)
         .doc(
             "drop a frame whose disparity / cloud is byte for byte the previous frame's under a "

@@ -89,6 +89,11 @@ SafetyMapRos::SafetyMapRos(ros::NodeHandle nh, ros::NodeHandle pnh) : FrameNodel
   reconfigure_.start(
       pnh_, [this](SafetyMapConfig& config, std::uint32_t level) { reconfigureCb(config, level); });
 
+  // A frame the queue drops hands its map reset (a restart) on to the frame after it.
+  slot_.setCapacity(static_cast<std::size_t>(ros_config_.frame_queue));
+  slot_.setCarry([](const Frame& dropped, Frame& successor) {
+    if (dropped.reset_map) successor.reset_map = true;
+  });
   startWorker([this](const Frame& frame) { processFrame(frame); },
               [this] { return max_rate_.load(); });
   age_timer_ = nh_.createWallTimer(ros::WallDuration(kAgePeriod),

@@ -57,9 +57,11 @@ struct World {
       roofColumn(28, v, 8);
     }
   }
-  // Labels every column Level, then runs the rule.
-  int run() {
+  // Labels every column Level, then runs the rule; `after_build` may change the heights first.
+  template <class AfterBuild = void (*)(HeightMap&)>
+  int run(AfterBuild after_build = [](HeightMap&) {}) {
     EXPECT_TRUE(hm.build(grid, 0.0f));
+    after_build(hm);
     map = SafetyMap();
     map.min_u = hm.minU();
     map.min_v = hm.minV();
@@ -115,6 +117,27 @@ TEST(OverhangRoof, TheFloorSeenUnderATableTopIsNonGround) {
   // Beside the table, where no edge lies on the sight line: unchanged.
   EXPECT_EQ(w.at(24, 8), SafetyLabel::kLevel);
   EXPECT_EQ(w.at(24, -8), SafetyLabel::kLevel);
+}
+
+// With mass_bands a column's indexed height is the voxel its points' mean lies in, which for a
+// thick top can be below its highest occupied voxel: the mark keeps the occupied top, the voxel
+// the obstacle memory watches.
+TEST(OverhangRoof, AMarkKeepsTheRoofsHighestOccupiedVoxel) {
+  World w;
+  w.tableEdges();
+  for (int v = -3; v <= 3; ++v) {
+    w.grid.setLogOdds({20, v, 9}, kOccupied);  // a top two voxels thick
+    w.grid.setLogOdds({28, v, 9}, kOccupied);
+  }
+  const int marked = w.run([](HeightMap& hm) {
+    for (int v = -3; v <= 3; ++v) {
+      hm.set(20, v, 8, 0);  // as mass_bands would index the column: its points' mean in w = 8
+      hm.set(28, v, 8, 0);
+    }
+  });
+  ASSERT_GT(marked, 0);
+  for (const OverhangRoofMark& r : w.scratch.marks)
+    EXPECT_EQ(r.roof_w, 9) << "roof column " << r.roof_u << ", " << r.roof_v;
 }
 
 TEST(OverhangRoof, TheFloorUnderAShelfSeenAtItsFrontEdge) {

@@ -90,6 +90,77 @@ TEST(FrameSlot, AcceptDecidesUnderTheLockAndSeesTheWaitingFrame) {
   EXPECT_TRUE(f->mark);
 }
 
+// setCarry: what a dropped frame carries (the safety map's reset_map) reaches the frame after it,
+// whichever way the queue drops it; frames not after a dropped marked one stay unmarked.
+TEST(FrameSlot, ADroppedFramesMarkPassesToTheFrameAfterIt) {
+  const auto carryMark = [](const Frame& dropped, Frame& successor) {
+    if (dropped.mark) successor.mark = true;
+  };
+  auto marked = [](int id) {
+    auto f = frame(id);
+    f->mark = true;
+    return f;
+  };
+  {  // one slot: the incoming frame replaces the marked one and takes its mark
+    Slot slot;
+    slot.setCarry(carryMark);
+    slot.put(marked(1));
+    EXPECT_EQ(slot.put(frame(2)), Slot::Put::kReplaced);
+    const auto f = slot.take(0.0, Slot::Clock::now());
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->id, 2);
+    EXPECT_TRUE(f->mark);
+  }
+  {  // two slots, full: the oldest (marked) is dropped, the next waiting one takes the mark
+    Slot slot;
+    slot.setCapacity(2);
+    slot.setCarry(carryMark);
+    slot.put(marked(1));
+    slot.put(frame(2));
+    EXPECT_EQ(slot.put(frame(3)), Slot::Put::kReplaced);
+    const auto a = slot.take(0.0, Slot::Clock::now());
+    const auto b = slot.take(0.0, Slot::Clock::now());
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->id, 2);
+    EXPECT_TRUE(a->mark);
+    EXPECT_EQ(b->id, 3);
+    EXPECT_FALSE(b->mark);
+  }
+  {  // a throttled take discards the older frames: the newest takes their mark
+    Slot slot;
+    slot.setCapacity(3);
+    slot.setCarry(carryMark);
+    slot.put(marked(1));
+    slot.put(frame(2));
+    slot.put(frame(3));
+    const auto f = slot.take(1000.0, Slot::Clock::now());
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->id, 3);
+    EXPECT_TRUE(f->mark);
+  }
+  {  // a smaller capacity cuts the oldest: the mark stays with what is kept
+    Slot slot;
+    slot.setCapacity(3);
+    slot.setCarry(carryMark);
+    slot.put(marked(1));
+    slot.put(frame(2));
+    slot.put(frame(3));
+    slot.setCapacity(1);
+    const auto f = slot.take(0.0, Slot::Clock::now());
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->id, 3);
+    EXPECT_TRUE(f->mark);
+  }
+  {  // without a carry nothing is handed on
+    Slot slot;
+    slot.put(marked(1));
+    slot.put(frame(2));
+    const auto f = slot.take(0.0, Slot::Clock::now());
+    ASSERT_TRUE(f);
+    EXPECT_FALSE(f->mark);
+  }
+}
+
 TEST(FrameSlot, StopEndsTakeAndRefusesLaterFrames) {
   Slot slot;
   std::unique_ptr<Frame> got = frame(-1);

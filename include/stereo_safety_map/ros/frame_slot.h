@@ -8,7 +8,9 @@
 // cores) is absorbed instead of dropped, at one frame of latency then. The worker takes the
 // oldest waiting frame. max_rate throttles: while the worker waits for its next start, frames
 // replace the waiting ones and take() returns the newest, dropping the older (counted by
-// take()'s `discarded`). stop() wakes the worker for good.
+// take()'s `discarded`). stop() wakes the worker for good. setCarry() names what a dropped frame
+// hands on to the frame after it (the safety map's "reset the map first" mark), so that dropping
+// a frame never drops a decision that frame carried.
 //
 // Thread-safe. putIf()'s `accept` runs under the queue's lock, so that state deciding the order
 // of frames (e.g. the newest stamp) changes with the queue, atomically.
@@ -19,6 +21,7 @@
 #include <cstddef>
 #include <deque>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -38,11 +41,19 @@ class FrameSlot {
     std::lock_guard<std::mutex> lock(mutex_);
     capacity_ = capacity < 1 ? 1 : capacity;
     while (queue_.size() > capacity_)
-      queue_.pop_front();
+      dropFront(nullptr);
   }
   std::size_t capacity() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return capacity_;
+  }
+
+  /// carry(dropped, successor) runs, under the queue's lock, for every frame the queue drops
+  /// (full on put(), discarded by a throttled take(), cut by setCapacity()), with the frame that
+  /// now comes after it: the next waiting one, or the incoming one of put(). Empty = nothing.
+  void setCarry(std::function<void(const Frame& dropped, Frame& successor)> carry) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    carry_ = std::move(carry);
   }
 
   /// Puts `frame` into the queue: kQueued, kReplaced (the queue was full: the oldest waiting frame
@@ -62,7 +73,7 @@ class FrameSlot {
       if (!accept(*frame, queue_.empty() ? nullptr : queue_.back().get())) return Put::kRefused;
       result = Put::kQueued;
       if (queue_.size() >= capacity_) {
-        queue_.pop_front();
+        dropFront(frame.get());
         result = Put::kReplaced;
       }
       queue_.push_back(std::move(frame));
@@ -85,7 +96,7 @@ class FrameSlot {
       cv_.wait_until(lock, next, [this] { return stop_; });
       if (stop_) return nullptr;
       while (queue_.size() > 1) {
-        queue_.pop_front();
+        dropFront(nullptr);
         if (discarded != nullptr) ++*discarded;
       }
     }
@@ -119,10 +130,20 @@ class FrameSlot {
   }
 
  private:
+  // Drops the oldest waiting frame, handing what it carries to the next waiting one (or to
+  // `incoming` when none waits). Under the lock.
+  void dropFront(Frame* incoming) {
+    std::unique_ptr<Frame> dropped = std::move(queue_.front());
+    queue_.pop_front();
+    Frame* successor = queue_.empty() ? incoming : queue_.front().get();
+    if (carry_ && successor != nullptr) carry_(*dropped, *successor);
+  }
+
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<std::unique_ptr<Frame>> queue_;
   std::size_t capacity_ = 1;
+  std::function<void(const Frame&, Frame&)> carry_;
   bool stop_ = false;
 };
 

@@ -52,6 +52,9 @@ struct SafetyMapRosConfig {
   /// A frame whose transform arrived more than this after the frame [s] is dropped: its pose
   /// would be interpolated across a gap in tf (odometry stalled), not measured.
   double max_tf_wait = 1.0;
+  /// Frames that may wait for the worker, 1..10: 1 = the newest only; 2 absorbs one frame whose
+  /// map took longer than the camera period instead of dropping it (frame_slot.h).
+  int frame_queue = 2;
   /// Diagnostics WARN when no input arrived, or none was used, for this long [s]; after this long
   /// without a frame integrated (by the ROS clock, against the map's stamp) the published
   /// OccupancyGrid turns all Unknown.

@@ -14,13 +14,14 @@
 // (exact_stamp_matcher.h unless approximate_sync: it keeps a frame's parts whatever else arrives,
 // where message_filters' ExactTime let a flood evict them) calls back with the frame; it checks the
 // frame as a whole (camera models, sizes), then frameIn() its stamp order, and puts the frame (the
-// message pointers) into a one-slot queue, so callbacks never wait for the pipeline. One worker
-// thread owned by this class takes frames from the slot and runs conversion, the core and
-// publishing. When a frame arrives while another waits in the slot, the waiting (older) frame is
-// replaced and counted as dropped: the newest frame wins, processing latency stays one frame, and
-// max_rate throttles by letting the slot be overwritten. A worker (rather than processing in the
-// callback) keeps the tf2 MessageFilter and the sync running on time while a frame is processed,
-// and lets drops be counted in one place.
+// message pointers) into a queue of `frame_queue` frames (default 2), so callbacks never wait for
+// the pipeline. One worker thread owned by this class takes frames from the queue, oldest first,
+// and runs conversion, the core and publishing. When a frame arrives while the queue is full, the
+// oldest waiting frame is dropped and counted (with one slot the newest frame wins and the
+// latency stays one frame; two absorb one slow map); a dropped frame's reset_map passes to the
+// frame after it. max_rate throttles by taking the newest waiting frame. A worker (rather than
+// processing in the callback) keeps the tf2 MessageFilter and the sync running on time while a
+// frame is processed, and lets drops be counted in one place.
 //
 // Locks, and what each guards (always taken in this order, never the other way round):
 //   reconfigure_mutex_  dynamic_reconfigure's server (held by it while reconfigureCb runs);
@@ -143,7 +144,7 @@ class SafetyMapRos : public FrameNodeletShell<SafetyMapFrame> {
   ReconfigureServer<SafetyMapConfig> reconfigure_;  ///< (nodelet_shell.h)
   std::mutex save_mutex_;
 
-  // The shell's one-slot queue: what decides the order of the frames put into it.
+  // The shell's frame queue: what decides the order of the frames put into it.
   ros::Time newest_stamp_;  ///< of the last frame put into the slot
   std::atomic<double> max_rate_{0.0};
   std::atomic<double> max_cell_age_{0.0};  ///< for diagnostics (mapper_config_ is the server's)
