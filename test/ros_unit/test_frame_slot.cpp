@@ -126,13 +126,17 @@ TEST(FrameSlot, ADroppedFramesMarkPassesToTheFrameAfterIt) {
     EXPECT_EQ(b->id, 3);
     EXPECT_FALSE(b->mark);
   }
-  {  // a throttled take discards the older frames: the newest takes their mark
-    Slot slot;
+  // Three slots holding frames 1 (marked), 2 and 3.
+  const auto fillThree = [&](Slot& slot) {
     slot.setCapacity(3);
     slot.setCarry(carryMark);
     slot.put(marked(1));
     slot.put(frame(2));
     slot.put(frame(3));
+  };
+  {  // a throttled take discards the older frames: the newest takes their mark
+    Slot slot;
+    fillThree(slot);
     const auto f = slot.take(1000.0, Slot::Clock::now());
     ASSERT_TRUE(f);
     EXPECT_EQ(f->id, 3);
@@ -140,11 +144,7 @@ TEST(FrameSlot, ADroppedFramesMarkPassesToTheFrameAfterIt) {
   }
   {  // a smaller capacity cuts the oldest: the mark stays with what is kept
     Slot slot;
-    slot.setCapacity(3);
-    slot.setCarry(carryMark);
-    slot.put(marked(1));
-    slot.put(frame(2));
-    slot.put(frame(3));
+    fillThree(slot);
     slot.setCapacity(1);
     const auto f = slot.take(0.0, Slot::Clock::now());
     ASSERT_TRUE(f);
