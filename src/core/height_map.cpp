@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 
@@ -17,6 +18,9 @@ std::string HeightMapConfig::validate() const {
   }
   if (!std::isfinite(tail_share) || tail_share < 0.0 || tail_share > 1.0) {
     return "tail_share must be in [0, 1]";
+  }
+  if (!std::isfinite(sparse_edge_share) || sparse_edge_share < 0.0 || sparse_edge_share > 1.0) {
+    return "sparse_edge_share must be in [0, 1]";
   }
   return "";
 }
@@ -35,6 +39,8 @@ void HeightMap::reset(int min_u, int min_v, int width, int height) {
   w_low_.assign(w_.size(), kNoHeight);
   surface_z_.assign(w_.size(), std::numeric_limits<float>::quiet_NaN());
   ground_z_.assign(w_.size(), std::numeric_limits<float>::quiet_NaN());
+  sparse_edge_columns_ = 0;
+  if (config_.sparse_edge_share > 0.0) mass_.assign(w_.size(), 0.0f);
 }
 
 void HeightMap::setSurfaceHeight(int u, int v, float z) {
@@ -116,6 +122,10 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
       }
       row[u - lo.u] = top;
       row_low[u - lo.u] = bottom;
+      if (config_.sparse_edge_share > 0.0) {
+        mass_[static_cast<std::size_t>(v - lo.v) * width_ + (u - lo.u)] =
+            grid.columnMass(u, v, top - 1, top + 1);
+      }
       if (config_.mass_heights) {
         // HeightMapConfig::mass_heights: every point of the surface's voxels; the column's
         // indexed height is the voxel its surface lies in, within its occupied extent.
@@ -157,7 +167,49 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
       if (count > 0) row_g[u - lo.u] = sum / static_cast<float>(count);
     }
   }
+  if (config_.sparse_edge_share > 0.0) clearSparseEdges();
   return true;
+}
+
+void HeightMap::clearSparseEdges() {
+  // HeightMapConfig::sparse_edge_share, one pass over the built heights (a cleared column makes
+  // no new edge in the same build, so the test never eats into a surface).
+  sparse_cells_.clear();
+  const float share = static_cast<float>(config_.sparse_edge_share);
+  for (int y = 0; y < height_; ++y) {
+    for (int x = 0; x < width_; ++x) {
+      const int c = y * width_ + x;
+      const std::int32_t w = w_[c];
+      if (w == kNoHeight) continue;
+      const bool edge = (x > 0 && w_[c - 1] == kNoHeight) ||
+                        (x + 1 < width_ && w_[c + 1] == kNoHeight) ||
+                        (y > 0 && w_[c - width_] == kNoHeight) ||
+                        (y + 1 < height_ && w_[c + width_] == kNoHeight);
+      if (!edge) continue;
+      float best = 0.0f;
+      std::int32_t best_w = kNoHeight;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xn = x + dx, yn = y + dy;
+          if ((dx == 0 && dy == 0) || xn < 0 || yn < 0 || xn >= width_ || yn >= height_) continue;
+          const int n = yn * width_ + xn;
+          if (w_[n] != kNoHeight && mass_[n] > best) {
+            best = mass_[n];
+            best_w = w_[n];
+          }
+        }
+      }
+      if (best_w == kNoHeight || std::abs(w - best_w) > 1) continue;
+      if (mass_[c] < share * best) sparse_cells_.push_back(c);
+    }
+  }
+  for (const std::int32_t c : sparse_cells_) {
+    w_[c] = kNoHeight;
+    w_low_[c] = kNoHeight;
+    surface_z_[c] = std::numeric_limits<float>::quiet_NaN();
+    ground_z_[c] = std::numeric_limits<float>::quiet_NaN();
+  }
+  sparse_edge_columns_ = static_cast<int>(sparse_cells_.size());
 }
 
 }  // namespace stereo_safety_map

@@ -149,6 +149,14 @@ ParamFieldList<M> makeMapperFields() {
           "with mass_heights, a column's indexed height is the voxel its measured surface lies "
           "in, within its occupied extent (ours; false = 000 Sec. V-A's highest occupied "
           "voxel).");
+  l.add("sparse_edge_share", &M::height_map, &HeightMapConfig::sparse_edge_share)
+      .closed(0, 1)
+      .doc(
+          "a column beside an unobserved one that received fewer than this share of the points "
+          "of its best-observed neighbour, at that neighbour's height, is taken as not observed "
+          "(Unknown): block matching's foreground fattening puts a near surface's disparity on "
+          "a narrow strip of the farther surface beside it (ours, on 002 Sec. 4.1; 0 = off, "
+          "000 Sec. V-A).");
   l.add("planning_radius", &M::segmentation, &GroundSegmentationConfig::planning_radius)
       .openClosed(0, 1000)
       .unit("m")

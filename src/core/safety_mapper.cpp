@@ -120,6 +120,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.height_map.tail_share = 0.0;               // 000 Sec. V-A: the highest occupied voxel
   c.height_map.mass_heights = false;           // 000 Sec. IV-V: the top voxel's list
   c.height_map.mass_bands = false;             // 000 Sec. V-A: the highest occupied voxel
+  c.height_map.sparse_edge_share = 0.0;        // 000 Sec. V-A: every column with a height
   c.plane_fit.mass_heights = false;            // 000 Sec. V-B: the voxels' point lists
   c.labelling.small_obstacles = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
   c.labelling.floor_fragments = false;         // 000 Alg. 2 steps 3-4: small or thin is Unknown
@@ -176,7 +177,8 @@ bool isRigid(const Eigen::Isometry3f& T) {
 
 // Whether a switch reads VoxelGrid::hitMass() and the means behind it.
 bool readsHitMass(const SafetyMapperConfig& c) {
-  return c.height_map.tail_share > 0.0 || c.height_map.mass_heights || c.plane_fit.mass_heights;
+  return c.height_map.tail_share > 0.0 || c.height_map.mass_heights || c.plane_fit.mass_heights ||
+         c.height_map.sparse_edge_share > 0.0;
 }
 
 }  // namespace

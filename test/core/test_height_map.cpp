@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
+#include <vector>
 
 namespace stereo_safety_map {
 namespace {
@@ -376,6 +378,71 @@ TEST(HeightMap, MassHeightsTakeEveryPointOfTheSurfacesVoxels) {
   g.setLogOdds({1, 1, -1}, 0);
   ASSERT_TRUE(bands.build(g, 0.0f));
   EXPECT_EQ(bands.atIndex(c), 0);
+}
+
+// Points of one frame on columns (u, v) at height z, n per column, seen from 2 m above.
+struct ColumnPoints {
+  int u, v, n;
+  float z;
+};
+void columnsFrame(VoxelGrid* g, const std::vector<ColumnPoints>& columns) {
+  const Eigen::Isometry3f T(Eigen::Translation3f(0.3f, 0.3f, 2.0f));
+  std::vector<Eigen::Vector3f> pts;
+  for (const ColumnPoints& c : columns) {
+    for (int i = 0; i < c.n; ++i) {
+      const float x = 0.1f * c.u - 0.04f + 0.08f * i / c.n;
+      pts.push_back(Eigen::Vector3f(x, 0.1f * c.v, c.z) - T.translation());
+    }
+  }
+  g->integrate(pts, T);
+}
+
+TEST(HeightMap, SparseEdgeShareTakesAThinStripBeyondAnEdgeAsUnobserved) {
+  // A floor at z = 0.02 on u, v = 1..5, 200 points a column and frame. Beyond its u = 5 edge
+  // (u = 7 and on never seen): column (6, 2) with 5 points a frame at the floor's height, as
+  // block matching's foreground fattening leaves on the first pixels beyond an edge; (6, 3) with
+  // 60 (partly in view); (6, 4) with 5 points three voxels up (an obstacle's top); (3, 3), inside
+  // the floor, with 5 points; (6, 1) with 5 points a voxel below (a drop).
+  std::vector<ColumnPoints> cols;
+  for (int v = 1; v <= 5; ++v)
+    for (int u = 1; u <= 5; ++u)
+      cols.push_back({u, v, u == 3 && v == 3 ? 5 : 200, 0.02f});
+  cols.push_back({6, 2, 5, 0.02f});
+  cols.push_back({6, 3, 60, 0.02f});
+  cols.push_back({6, 4, 5, 0.32f});
+  cols.push_back({6, 1, 5, -0.18f});
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  for (int f = 0; f < 12; ++f)
+    columnsFrame(&g, cols);
+  HeightMap paper;
+  ASSERT_TRUE(paper.build(g, 0.0f));
+  for (const ColumnPoints& c : cols)
+    ASSERT_NE(paper.at(c.u, c.v), HeightMap::kNoHeight) << c.u << " " << c.v;
+  EXPECT_EQ(paper.sparseEdgeColumns(), 0);
+
+  HeightMapConfig cfg;
+  cfg.sparse_edge_share = 0.1;
+  HeightMap hm(cfg);
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  EXPECT_EQ(hm.at(6, 2), HeightMap::kNoHeight);  // the strip: not observed
+  EXPECT_TRUE(std::isnan(hm.surfaceHeightAtIndex(hm.index(6, 2))));
+  EXPECT_EQ(hm.at(6, 3), 0);   // 0.3 of its neighbour's points: kept
+  EXPECT_EQ(hm.at(6, 4), 3);   // an obstacle's top: kept
+  EXPECT_EQ(hm.at(6, 1), -2);  // a drop: kept
+  EXPECT_EQ(hm.at(3, 3), 0);   // inside the floor: kept
+  EXPECT_EQ(hm.at(5, 2), 0);   // the floor's edge itself: kept
+  EXPECT_EQ(hm.sparseEdgeColumns(), 1);
+  // Mass heights and bands change nothing of it.
+  cfg.mass_heights = true;
+  cfg.mass_bands = true;
+  HeightMap mass(cfg);
+  ASSERT_TRUE(mass.build(g, 0.0f));
+  EXPECT_EQ(mass.at(6, 2), HeightMap::kNoHeight);
+  EXPECT_EQ(mass.at(6, 3), 0);
+  EXPECT_EQ(mass.sparseEdgeColumns(), 1);
+  cfg.sparse_edge_share = 1.5;
+  EXPECT_NE(cfg.validate().find("sparse_edge_share"), std::string::npos);
 }
 
 TEST(HeightMap, ManualResetAndSet) {

@@ -1128,6 +1128,18 @@ TEST(SafetyMapperObstacleMemory, ResetAndThePapersConfigurationForget) {
   EXPECT_TRUE(SafetyMapperConfig().obstacle_memory);
 }
 
+// HeightMapConfig::sparse_edge_share reads the hit masses: the mapper keeps them for it alone,
+// and 000's configuration turns it off.
+TEST(SafetyMapperSparseEdges, TheRuleKeepsTheHitMassesAndIsOffInThePapersConfiguration) {
+  SafetyMapperConfig paper = paperFaithful(SafetyMapperConfig());
+  EXPECT_FALSE(SafetyMapper(paper).grid().hitMassTracking());
+  SafetyMapperConfig c = paper;
+  c.height_map.sparse_edge_share = 0.1;
+  EXPECT_TRUE(SafetyMapper(c).grid().hitMassTracking());
+  EXPECT_EQ(paperFaithful(c).height_map.sparse_edge_share, 0.0);
+  EXPECT_EQ(SafetyMapperConfig().height_map.sparse_edge_share, 0.0);  // a switch, off
+}
+
 TEST(SafetyMapperOverhangRoof, OnByDefaultOffInThePapersConfiguration) {
   EXPECT_TRUE(SafetyMapperConfig().overhang_roof.enabled);
   EXPECT_FALSE(paperFaithful(SafetyMapperConfig()).overhang_roof.enabled);

@@ -77,6 +77,20 @@ struct HeightMapConfig {
   /// (never above its highest nor below its lowest occupied voxel) rather than its highest
   /// occupied voxel (ours; false = 000 Sec. V-A).
   bool mass_bands = false;
+  /// Thin columns at the edge of what was seen are not measured ground (ours, on 002 Sec. 4.1's
+  /// occlusion boundaries; 0 = off, 000 Sec. V-A takes every column). A column that borders an
+  /// unobserved column (4-neighbours, no height) and received fewer than this share of the
+  /// points (VoxelGrid::hitMass of its top voxel and the voxels just below and above it) of its
+  /// best-observed 8-neighbour, at that neighbour's height within one voxel, is taken as not
+  /// observed: Unknown, never a segment's ground. Block matching carries the disparity of a near
+  /// surface over the first pixels of a farther one beside it (foreground fattening): the street
+  /// seen in a narrow strip beyond a curb running along the field of view's edge receives 40-90
+  /// points per column at the curb top's height while the sidewalk's columns receive 1000-3000
+  /// (dev seed 44), and with mass_heights the strip joins the sidewalk as Level. A column only
+  /// partly in view keeps its share of the points (a fifth in view keeps about 0.2). A column
+  /// that rises above the neighbour by more than a voxel (an obstacle's top) or lies lower (a
+  /// drop) is kept. Reads the hit masses (VoxelGrid::setHitMassTracking). [0, 1].
+  double sparse_edge_share = 0.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -142,6 +156,8 @@ class HeightMap {
   /// voxel, and a sunken floor 6 cm below the robot's reads 3-4 cm below it. The two voxels
   /// together hold the whole spread of the noise.
   float groundHeightAtIndex(int cell) const { return ground_z_[cell]; }
+  /// Columns the last build() took as not observed (HeightMapConfig::sparse_edge_share).
+  int sparseEdgeColumns() const { return sparse_edge_columns_; }
   const std::vector<std::int32_t>& data() const { return w_; }
   /// Highest indexed height considered by the last build() (the robot's top), for diagnostics.
   int topIndex() const { return top_w_; }
@@ -154,6 +170,11 @@ class HeightMap {
   std::vector<std::int32_t> w_low_;
   std::vector<float> surface_z_;
   std::vector<float> ground_z_;
+  std::vector<float> mass_;                 // sparse_edge_share: points of each column's surface
+  std::vector<std::int32_t> sparse_cells_;  // sparse_edge_share: columns to clear
+  int sparse_edge_columns_ = 0;
+
+  void clearSparseEdges();
 };
 
 }  // namespace stereo_safety_map

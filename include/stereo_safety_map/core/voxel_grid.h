@@ -220,6 +220,8 @@ class VoxelGrid {
   /// the voxel it lies in and its neighbours, so the mean over the three around a column's top is
   /// the surface's height, not that of the part of its noise one voxel happens to hold.
   float massMeanZ(int u, int v, int w_from, int w_to) const;
+  /// Faded hitMass() summed over the voxels w_from .. w_to of column (u, v); 0 when none.
+  float columnMass(int u, int v, int w_from, int w_to) const;
   /// Integrated frames over which hitMass() fades (e-folding), so that a voxel whose surface
   /// moved follows it.
   static constexpr float kHitMassWindow = 64.0f;
@@ -227,6 +229,7 @@ class VoxelGrid {
   /// mass_heights, plane_mass_heights), so that 000's default path does none of its per-point
   /// work. While off, integrated frames add nothing to it.
   void setHitMassTracking(bool on) { track_hit_mass_ = on; }
+  bool hitMassTracking() const { return track_hit_mass_; }
 
   /// Highest and lowest occupied voxel (LOP >= occ_t) of the column (u, v) among the indexed
   /// heights [w_lo, w_hi] (global indices, clipped to the window). Returns false and leaves the
