@@ -88,8 +88,9 @@ struct HeightMapConfig {
   /// points per column at the curb top's height while the sidewalk's columns receive 1000-3000
   /// (dev seed 44), and with mass_heights the strip joins the sidewalk as Level. A column only
   /// partly in view keeps its share of the points (a fifth in view keeps about 0.2). A column
-  /// that rises above the neighbour by more than a voxel (an obstacle's top) or lies lower (a
-  /// drop) is kept. Reads the hit masses (VoxelGrid::setHitMassTracking). [0, 1].
+  /// more than a voxel above the neighbour (an obstacle's top) or below it (a drop) is kept; one
+  /// voxel lower is cleared (Unknown, not Non-ground: still not safe). Reads the hit masses
+  /// (VoxelGrid::setHitMassTracking). [0, 1].
   double sparse_edge_share = 0.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
