@@ -173,34 +173,34 @@ bool HeightMap::build(const VoxelGrid& grid, float robot_base_z) {
 
 void HeightMap::clearSparseEdges() {
   // HeightMapConfig::sparse_edge_share, one pass over the built heights (a cleared column makes
-  // no new edge in the same build, so the test never eats into a surface).
+  // no new edge in the same build, so the test never eats into a surface). The test is asked
+  // along a line: the unobserved 4-neighbour on one side, the better-observed column on the
+  // other, as a strip beyond an edge lies between the surface it was fattened from and what
+  // was not seen. A one-column stripe of readings between unobserved columns (a pale floor seen
+  // along its tile joints) has no such line across it and is kept, whatever a denser crossing
+  // stripe beside it received.
   sparse_cells_.clear();
   const float share = static_cast<float>(config_.sparse_edge_share);
+  const int dx[4] = {1, -1, 0, 0};
+  const int dy[4] = {0, 0, 1, -1};
   for (int y = 0; y < height_; ++y) {
     for (int x = 0; x < width_; ++x) {
       const int c = y * width_ + x;
       const std::int32_t w = w_[c];
       if (w == kNoHeight) continue;
-      const bool edge = (x > 0 && w_[c - 1] == kNoHeight) ||
-                        (x + 1 < width_ && w_[c + 1] == kNoHeight) ||
-                        (y > 0 && w_[c - width_] == kNoHeight) ||
-                        (y + 1 < height_ && w_[c + width_] == kNoHeight);
-      if (!edge) continue;
-      float best = 0.0f;
-      std::int32_t best_w = kNoHeight;
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int xn = x + dx, yn = y + dy;
-          if ((dx == 0 && dy == 0) || xn < 0 || yn < 0 || xn >= width_ || yn >= height_) continue;
-          const int n = yn * width_ + xn;
-          if (w_[n] != kNoHeight && mass_[n] > best) {
-            best = mass_[n];
-            best_w = w_[n];
-          }
+      for (int k = 0; k < 4; ++k) {
+        const int xo = x + dx[k], yo = y + dy[k];  // the unobserved side
+        const int xi = x - dx[k], yi = y - dy[k];  // the observed side
+        if (xo < 0 || yo < 0 || xo >= width_ || yo >= height_) continue;
+        if (xi < 0 || yi < 0 || xi >= width_ || yi >= height_) continue;
+        if (w_[yo * width_ + xo] != kNoHeight) continue;
+        const int n = yi * width_ + xi;
+        if (w_[n] == kNoHeight || std::abs(w - w_[n]) > 1) continue;
+        if (mass_[c] < share * mass_[n]) {
+          sparse_cells_.push_back(c);
+          break;
         }
       }
-      if (best_w == kNoHeight || std::abs(w - best_w) > 1) continue;
-      if (mass_[c] < share * best) sparse_cells_.push_back(c);
     }
   }
   for (const std::int32_t c : sparse_cells_) {

@@ -702,13 +702,8 @@ float VoxelGrid::massMeanZ(int u, int v, int w_from, int w_to) const {
 
 float VoxelGrid::columnMass(int u, int v, int w_from, int w_to) const {
   double mass = 0.0;
-  for (int w = w_from; w <= w_to; ++w) {
-    const VoxelIndex i{u, v, w};
-    if (!contains(i)) continue;
-    const std::size_t k = linear(i);
-    const float m = hit_mass_[k];
-    if (m > 0.0f) mass += m * fadeFor(frame_ - mass_frame_[k]);
-  }
+  for (int w = w_from; w <= w_to; ++w)
+    mass += hitMass(VoxelIndex{u, v, w});
   return static_cast<float>(mass);
 }
 

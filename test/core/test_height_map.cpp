@@ -445,6 +445,43 @@ TEST(HeightMap, SparseEdgeShareTakesAThinStripBeyondAnEdgeAsUnobserved) {
   EXPECT_NE(cfg.validate().find("sparse_edge_share"), std::string::npos);
 }
 
+TEST(HeightMap, SparseEdgeShareKeepsAStripeOfReadingsBetweenUnobservedColumns) {
+  // A pale floor seen only along its tile joints: a stripe along u (v = -5, u = -6..6) with 20
+  // points a column and frame, crossed at u = 0 by a denser stripe along v (200 points). Every
+  // cell of the thin stripe borders unobserved tiles on both sides, and the two beside the
+  // crossing have a neighbour with ten times their points; neither lies between a denser column
+  // and an unobserved one along a line, so the whole stripe stays measured ground. The thin
+  // stripe's two ends, beside the unobserved, have an equal neighbour inwards: kept too.
+  std::vector<ColumnPoints> cols;
+  for (int u = -6; u <= 6; ++u)
+    if (u != 0) cols.push_back({u, -5, 20, 0.02f});
+  for (int v = -9; v <= -1; ++v)
+    cols.push_back({0, v, 200, 0.02f});
+  VoxelGrid g(smallGrid());
+  g.recenter(Eigen::Vector3f::Zero());
+  for (int f = 0; f < 12; ++f)
+    columnsFrame(&g, cols);
+  HeightMapConfig cfg;
+  cfg.sparse_edge_share = 0.2;
+  HeightMap hm(cfg);
+  ASSERT_TRUE(hm.build(g, 0.0f));
+  for (const ColumnPoints& c : cols)
+    EXPECT_EQ(hm.at(c.u, c.v), 0) << c.u << " " << c.v;
+  EXPECT_EQ(hm.sparseEdgeColumns(), 0);
+  // A thin column beside the crossing's end, in line with it (v = 0, the unobserved beyond at
+  // v = 1): cleared.
+  cols.push_back({0, 0, 5, 0.02f});
+  VoxelGrid g2(smallGrid());
+  g2.recenter(Eigen::Vector3f::Zero());
+  for (int f = 0; f < 12; ++f)
+    columnsFrame(&g2, cols);
+  ASSERT_TRUE(hm.build(g2, 0.0f));
+  EXPECT_EQ(hm.at(0, 0), HeightMap::kNoHeight);
+  EXPECT_EQ(hm.at(-1, -5), 0);
+  EXPECT_EQ(hm.at(1, -5), 0);
+  EXPECT_EQ(hm.sparseEdgeColumns(), 1);
+}
+
 TEST(HeightMap, ManualResetAndSet) {
   HeightMap hm;
   hm.reset(-2, 3, 4, 5);

@@ -79,9 +79,10 @@ struct HeightMapConfig {
   bool mass_bands = false;
   /// Thin columns at the edge of what was seen are not measured ground (ours, on 002 Sec. 4.1's
   /// occlusion boundaries; 0 = off, 000 Sec. V-A takes every column). A column that borders an
-  /// unobserved column (4-neighbours, no height) and received fewer than this share of the
-  /// points (VoxelGrid::hitMass of its top voxel and the voxels just below and above it) of its
-  /// best-observed 8-neighbour, at that neighbour's height within one voxel, is taken as not
+  /// unobserved 4-neighbour (no height) and received fewer than this share of the points
+  /// (VoxelGrid::hitMass of its top voxel and the voxels just below and above it) of the
+  /// 4-neighbour on the opposite side, at that neighbour's height within one voxel (a line
+  /// across the edge: a one-column stripe between unobserved columns is kept), is taken as not
   /// observed: Unknown, never a segment's ground. Block matching carries the disparity of a near
   /// surface over the first pixels of a farther one beside it (foreground fattening): the street
   /// seen in a narrow strip beyond a curb running along the field of view's edge receives 40-90
