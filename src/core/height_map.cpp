@@ -176,9 +176,9 @@ void HeightMap::clearSparseEdges() {
   // no new edge in the same build, so the test never eats into a surface). The test is asked
   // along a line: the unobserved 4-neighbour on one side, the better-observed column on the
   // other, as a strip beyond an edge lies between the surface it was fattened from and what
-  // was not seen. A one-column stripe of readings between unobserved columns (a pale floor seen
-  // along its tile joints) has no such line across it and is kept, whatever a denser crossing
-  // stripe beside it received.
+  // was not seen. A one-column stripe of readings between unobserved columns has no such line
+  // across it and is kept, whatever a denser crossing stripe beside it received (this alone
+  // does not mend dev 41's pale floor: docs/evaluation.md).
   sparse_cells_.clear();
   const float share = static_cast<float>(config_.sparse_edge_share);
   const int dx[4] = {1, -1, 0, 0};

@@ -153,7 +153,7 @@ ParamFieldList<M> makeMapperFields() {
       .closed(0, 1)
       .doc(
           "a column beside an unobserved one that received fewer than this share of the points "
-          "of its best-observed neighbour, at that neighbour's height, is taken as not observed "
+          "of the neighbour opposite it, at that neighbour's height, is taken as not observed "
           "(Unknown): block matching's foreground fattening puts a near surface's disparity on "
           "a narrow strip of the farther surface beside it (ours, on 002 Sec. 4.1; 0 = off, "
           "000 Sec. V-A).");
