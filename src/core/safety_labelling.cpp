@@ -85,6 +85,10 @@ std::string SafetyLabellingConfig::validate() const {
   if (!std::isfinite(drop_off_sink) || drop_off_sink < 0.0 || drop_off_sink > 10.0) {
     return "drop_off_sink must be in [0, 10] m (0 = off)";
   }
+  if (!std::isfinite(obstacle_face_min_rise) || obstacle_face_min_rise < 0.0 ||
+      obstacle_face_min_rise > 10.0) {
+    return "obstacle_face_min_rise must be in [0, 10] m";
+  }
   return "";
 }
 
@@ -594,13 +598,18 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
     }
   }
 
-  if (config_.drop_off_margin) {
+  const bool face = config_.obstacle_face_margin;
+  if (config_.drop_off_margin || face) {
     // SafetyLabellingConfig::drop_off_margin: border cells of safe segments beside an observed
     // surface lower by more than the drop (local surface heights) are Non-ground. Heights are
     // read, labels written, so the margin does not spread.
+    // SafetyLabellingConfig::obstacle_face_margin: the same beside an observed column that is in
+    // no safe segment and whose measured surface stands above the cell's by more than the rise.
     if (!measured) local_z_.assign(n, kLocalZPending);
+    const bool drops = config_.drop_off_margin;
     const double drop = std::max(config_.max_step_height, config_.drop_off_min_drop);
-    const double sink = config_.drop_off_sink;
+    const double rise = std::max(config_.max_step_height, config_.obstacle_face_min_rise);
+    const double sink = drops ? config_.drop_off_sink : 0.0;
     margin_.clear();
     for (int k = 0; k < nseg; ++k) {
       if (!isSafe(m.segments[k].label)) continue;
@@ -625,8 +634,16 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
             break;
           }
           if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
-          const float zn = segs.segment_of[cn] >= 0 ? localSurfaceHeight(hm, segs, cn)
-                                                    : hm.surfaceHeightAtIndex(cn);
+          const int kn = segs.segment_of[cn];
+          if (face && (kn < 0 || kn >= nseg || !isSafe(m.segments[kn].label)) &&
+              hm.surfaceHeightAtIndex(cn) > zc + rise) {  // NaN: false
+            // The face of an obstacle, a wall or a table's edge may stand within this cell:
+            // its column was seen beside it, not always in it.
+            margin_.push_back(c);
+            break;
+          }
+          if (!drops) continue;
+          const float zn = kn >= 0 ? localSurfaceHeight(hm, segs, cn) : hm.surfaceHeightAtIndex(cn);
           // A drop is a discontinuity: lower than the cell's own surface and than the
           // segment's plane carried on to the neighbour. At a ramp's foot the ramp's plane
           // comes down to the floor (its local surface, averaged up the slope, does not).

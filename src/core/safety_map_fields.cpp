@@ -378,6 +378,17 @@ ParamFieldList<M> makeMapperFields() {
           "with drop_off_margin: a border cell of a safe segment next to a cell never seen whose "
           "measured surface lies more than this below its segment's plane is a drop's edge whose "
           "lower side was not seen: Non-ground (ours; 0 = off, as 000).");
+  l.add("obstacle_face_margin", &M::labelling, &SafetyLabellingConfig::obstacle_face_margin)
+      .doc(
+          "border cells of safe segments beside an observed column in no safe segment whose "
+          "surface stands more than max(h_T, obstacle_face_min_rise) above them are Non-ground: "
+          "an obstacle's face may stand inside the floor's last cell (ours; false = 000).");
+  l.add("obstacle_face_min_rise", &M::labelling, &SafetyLabellingConfig::obstacle_face_min_rise)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "with obstacle_face_margin: the smallest rise of the neighbour's surface that makes "
+          "a face (below h_T: h_T; at h_T the margin also rings stereo's 5-10 cm floor bumps).");
   l.add("mark_drop_offs", &M::labelling, &SafetyLabellingConfig::mark_drop_offs)
       .live(kStage)
       .doc("annotate potential drop-off edges (000 Sec. VI).");

@@ -137,6 +137,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.slope_margin_deg = 0.0;           // 000 Alg. 2 step 2: theta_max alone
   c.labelling.drop_off_margin = false;          // 000 Sec. VI: annotation only
   c.labelling.drop_off_sink = 0.0;              // 000 Sec. VI: annotation only
+  c.labelling.obstacle_face_margin = false;     // 000 Sec. VI: no margin
   c.plane_fit.vertical_margin = 0;              // 000 Sec. V-B: the segment's own points
   c.plane_fit.observation_means = false;        // 000 Sec. V-B: the voxels' point lists
   c.max_cell_age = 0.0;                         // 000 keeps every voxel while in the window

@@ -122,6 +122,7 @@ TEST(SafetyLabellingConfig, DefaultsAreThePapersAndValidateNamesTheParameter) {
   bad([](auto& b) { b.level_slope_deg = 12.0; }, "level_slope_deg");
   bad([](auto& b) { b.drop_off_radius = -0.1; }, "drop_off_radius");
   bad([](auto& b) { b.drop_off_min_drop = -1.0; }, "drop_off_min_drop");
+  bad([](auto& b) { b.obstacle_face_min_rise = -1.0; }, "obstacle_face_min_rise");
   bad([](auto& b) { b.max_gap_cells = 11; }, "max_gap_cells");
   bad([](auto& b) { b.max_gap_cells = -1; }, "max_gap_cells");
   bad([](auto& b) { b.floor_fragment_tolerance = 1.5; }, "floor_fragment_tolerance");
@@ -902,6 +903,47 @@ TEST(SafetyLabellingDropOffMargin, AnEdgeSinkingIntoTheUnseenIsNonGround) {
       w.hm.setSurfaceHeight(u, v, v == 5 ? -0.03f : 0.0f);
   ASSERT_TRUE(w.label(SafetyLabellingConfig()));
   EXPECT_EQ(w.at(6, 5), L::kLevel);
+}
+
+// A pole 0.5 m high (one column, indexed 5) and a bump measured 8 cm above a level floor (indexed
+// 1: stereo's noise on a floor at range reads so): with obstacle_face_margin the floor's 8 cells
+// around the pole are Non-ground (its face may stand inside them), the cells around the bump stay
+// Level (a rise below obstacle_face_min_rise makes no face), and so does the floor two cells from
+// the pole. Off, as in 000, the pole's neighbours are Level. With the rise at h_T the bump is
+// ringed too.
+TEST(SafetyLabellingObstacleFaceMargin, TheFloorCellsAroundAPoleAreNonGround) {
+  const std::vector<std::string> rows = {"000000000000", "000000000000", "000000000000",
+                                         "000000500000", "000000000000", "000000000000",
+                                         "000000000100", "000000000000"};
+  for (const bool face : {false, true}) {
+    World w(rows, 2, 1, 0, islandSegmentation());
+    for (int v = 0; v < w.hm.height(); ++v)
+      for (int u = 0; u < w.hm.width(); ++u)
+        w.hm.setSurfaceHeight(u, v,
+                              static_cast<float>(w.hm.at(u, v) == 5   ? 0.48
+                                                 : w.hm.at(u, v) == 1 ? 0.08
+                                                                      : 0.0));
+    SafetyLabellingConfig c;
+    c.obstacle_face_margin = face;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(6, 3), L::kNonGround);  // the pole's column
+    for (int dv = -1; dv <= 1; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        if (du == 0 && dv == 0) continue;
+        EXPECT_EQ(w.at(6 + du, 3 + dv), face ? L::kNonGround : L::kLevel)
+            << "face " << face << " at " << du << ", " << dv;
+      }
+    }
+    EXPECT_EQ(w.at(8, 3), L::kLevel);
+    EXPECT_EQ(w.at(4, 3), L::kLevel);
+    EXPECT_EQ(w.at(6, 1), L::kLevel);
+    EXPECT_EQ(w.at(8, 6), L::kLevel);  // beside the bump
+    EXPECT_EQ(w.at(10, 7), L::kLevel);
+    EXPECT_FALSE(w.drop(5, 3));
+    c.obstacle_face_min_rise = c.max_step_height;
+    ASSERT_TRUE(w.label(c));
+    EXPECT_EQ(w.at(8, 6), face ? L::kNonGround : L::kLevel);
+  }
 }
 
 // The robot's own segment a fragment: the seed rule picks the two cells at the base's indexed
