@@ -148,6 +148,7 @@ bool SafetyLabelling::borderFailed(int s, int r) const {
 bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
                             const std::vector<GroundPlane>& planes, double voxel_size,
                             SafetyMap* map) {
+  face_marks_.clear();
   if (map == nullptr) return false;
   SafetyMap& m = *map;
   const int n = hm.numCells();
@@ -640,6 +641,7 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
             // The face of an obstacle, a wall or a table's edge may stand within this cell:
             // its column was seen beside it, not always in it.
             margin_.push_back(c);
+            face_marks_.push_back(FaceMark{c, cn});
             break;
           }
           if (!drops) continue;

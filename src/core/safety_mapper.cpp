@@ -303,6 +303,7 @@ void SafetyMapper::reset() {
   grid_.clear();
   obstacle_memory_.clear();
   roof_memory_.clear();
+  face_memory_.clear();
   cells_remembered_ = 0;
   observation_age_.clear();
   latest_time_ = kNoTime;
@@ -518,6 +519,28 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       if (grid_.logOdds(VoxelIndex{u, v, w}) > clear_lop) return true;
     return false;
   });
+
+  // SafetyLabellingConfig::obstacle_face_margin: a cell that held an obstacle's face keeps
+  // Non-ground while the top voxel of the face's column that marked it stays occupied (the
+  // column's own cells are the obstacle memory's); rays that clear that voxel forget it.
+  if (!config_.labelling.obstacle_face_margin) {
+    face_memory_.clear();
+  } else {
+    for (const SafetyLabelling::FaceMark& f : labelling_.faceMarks()) {
+      const int u = m.min_u + f.cell % m.width, v = m.min_v + f.cell / m.width;
+      if (max_range2 > 0.0) {  // SafetyMapperConfig::obstacle_memory_max_range, as above
+        const double du = u - m.robot_u, dv = v - m.robot_v;
+        if ((du * du + dv * dv) * m.resolution * m.resolution > max_range2) continue;
+      }
+      const std::int32_t w = height_map_.atIndex(f.face_cell);
+      if (w == HeightMap::kNoHeight) continue;
+      face_memory_[key(u, v)] =
+          RoofMark{m.min_u + f.face_cell % m.width, m.min_v + f.face_cell / m.width, w};
+    }
+    apply(face_memory_, [&](int, int, const RoofMark& face) {
+      return grid_.logOdds(VoxelIndex{face.u, face.v, face.w}) > clear_lop;
+    });
+  }
 
   // OverhangRoofConfig::remember: the floor seen under a roof keeps Non-ground while the roof
   // column's top voxel that marked it stays occupied; rays that clear that voxel (000 Sec. IV)

@@ -388,12 +388,23 @@ TEST_F(ObjectPermanence, AnObstacleStaysNonGroundUntilFreeSpaceIsObservedThere) 
   const int freed = count(footprint, [&](const Cell& c) {
     return isSafeLabel(labelOf(mem, c)) && isFreeCost(costOf(mem, c));
   });
+  const int freed_paper = count(footprint, [&](const Cell& c) {
+    return isSafeLabel(labelOf(pap, c)) && isFreeCost(costOf(pap, c));
+  });
   std::printf(
-      "[permanence] box removed, looked at again: %d of 9 box cells safe\n/memory:\n%s"
+      "[permanence] box removed, looked at again: %d of 9 box cells safe (/paper %d)\n/memory:\n%s"
       "/paper:\n%s",
-      freed, picture(mem).c_str(), picture(pap).c_str());
+      freed, freed_paper, picture(mem).c_str(), picture(pap).c_str());
   RecordProperty("cells_freed", freed);
-  EXPECT_GE(freed, 5) << "free space observed through the box's columns, yet only " << freed
+  // The memory forgets what free space was observed through: /memory frees every cell that
+  // /paper (no memory, the map recomputed from the grid) frees. How many that is is the
+  // labelling's: the box's top voxels are seen through from this pose in some columns only, and
+  // obstacle_face_margin keeps the floor beside a column still occupied Non-ground in both maps
+  // (3 of 9 freed; 5 before that margin).
+  EXPECT_EQ(freed, freed_paper) << "/memory holds box cells that /paper frees\n/memory:\n"
+                                << picture(mem) << "/paper:\n"
+                                << picture(pap);
+  EXPECT_GE(freed, 3) << "free space observed through the box's columns, yet only " << freed
                       << " of its 9 cells are safe in /memory\n"
                       << picture(mem);
   std::string kept;

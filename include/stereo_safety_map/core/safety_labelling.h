@@ -193,7 +193,9 @@ struct SafetyLabellingConfig {
   /// a Level / Inclined segment whose 8-neighbour is an observed column in no safe segment (a
   /// non-traversable column, or a segment labelled Non-ground or Unknown) whose measured
   /// surface stands more than max(h_T, obstacle_face_min_rise) above the cell's own local
-  /// surface is Non-ground, as the drop_off_margin cells are.
+  /// surface is Non-ground, as the drop_off_margin cells are. With the mapper's obstacle_memory,
+  /// such a cell stays Non-ground while the top voxel of the face's column stays occupied
+  /// (SafetyLabelling::faceMarks, SafetyMapper's face memory).
   bool obstacle_face_margin = true;
   /// [m], [0, 10]: the rise that makes a face (below h_T: h_T). 0.1 m, the smallest
   /// obstacle: at h_T the margin also rings stereo's 5-10 cm bumps on the floor (dev split,
@@ -223,6 +225,14 @@ class SafetyLabelling {
   /// positive; `map` then covers the height map's window with every cell Unknown and no segments.
   bool label(const HeightMap& height_map, const GroundSegments& segments,
              const std::vector<GroundPlane>& planes, double voxel_size, SafetyMap* map);
+
+  /// The last label() call's obstacle_face_margin cells, each with the neighbour column whose
+  /// face made it (cell indices of the height map's window).
+  struct FaceMark {
+    int cell;
+    int face_cell;
+  };
+  const std::vector<FaceMark>& faceMarks() const { return face_marks_; }
 
  private:
   struct Contact {  // a boundary cell of segment s next to segment r
@@ -256,7 +266,8 @@ class SafetyLabelling {
   SafetyLabellingConfig config_;
   std::vector<std::uint8_t> boundary_;  // per cell
   std::vector<float> local_z_;          // per cell, see localSurfaceHeight()
-  std::vector<int> margin_;             // cells of the drop-off margin
+  std::vector<int> margin_;             // cells of the drop-off and obstacle face margins
+  std::vector<FaceMark> face_marks_;    // the obstacle face margin's, see faceMarks()
   std::vector<Contact> contacts_;
   std::vector<Edge> edges_;  // sorted by (s, r), s's range is edge_begin_[s..s+1)
   std::vector<int> edge_begin_;

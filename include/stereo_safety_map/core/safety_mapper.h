@@ -217,6 +217,8 @@ class SafetyMapper {
   std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
   /// Cells the memory holds as floor seen under a roof (OverhangRoofConfig::remember).
   std::size_t roofMemorySize() const { return roof_memory_.size(); }
+  /// Cells the memory holds as an obstacle's face cells (obstacle_face_margin).
+  std::size_t faceMemorySize() const { return face_memory_.size(); }
   /// Safe cells of the current map turned Unknown by aging since it was computed.
   std::size_t cellsAged() const { return cells_aged_; }
   /// Latest frame stamp / aging time seen; NaN when none since the start or the last reset.
@@ -285,6 +287,9 @@ class SafetyMapper {
     std::int32_t w;
   };
   std::unordered_map<std::int64_t, RoofMark> roof_memory_;
+  // SafetyLabellingConfig::obstacle_face_margin under obstacle_memory: floor cells marked as
+  // holding an obstacle's face, with the top voxel of the face's column that marked them last.
+  std::unordered_map<std::int64_t, RoofMark> face_memory_;
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
