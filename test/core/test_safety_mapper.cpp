@@ -992,6 +992,43 @@ namespace {
 // sees only their lowest voxel) keeps them Non-ground while their voxels are occupied; once
 // free space was observed there (the voxels above emptied), the cells follow the labelling
 // again. Without the memory they flip to Level at once.
+// SafetyLabellingConfig::obstacle_face_margin under obstacle_memory: the floor cell before the
+// box's near face is Non-ground by the margin; when the labelling no longer marks it (here: the
+// rise raised beyond the box), the memory keeps it while the face column's top voxel stays
+// occupied, and forgets it once rays have cleared the box.
+TEST(SafetyMapperObstacleMemory, AFaceCellStaysWhileItsFaceIsOccupied) {
+  const std::vector<Frame> frames = drive(floorWithBox());
+  const Eigen::Vector3f robot = frames.back().robot;
+  for (const bool memory : {false, true}) {
+    SafetyMapperConfig c;
+    c.obstacle_memory = memory;
+    c.max_cell_age = 0.0;
+    ASSERT_TRUE(c.labelling.obstacle_face_margin);
+    const auto m = run(frames, c);
+    ASSERT_EQ(labelAt(m->safetyMap(), 1.9, 0.0), L::kNonGround) << ascii(m->safetyMap());
+    ASSERT_EQ(labelAt(m->safetyMap(), 1.3, 0.0), L::kLevel) << ascii(m->safetyMap());
+    EXPECT_EQ(m->faceMemorySize() > 0, memory);
+    SafetyMapperConfig r = c;
+    r.labelling.obstacle_face_min_rise = 5.0;  // no face marks any more
+    EXPECT_EQ(m->reconfigure(r), "");
+    m->computeSafetyMap(robot);
+    EXPECT_EQ(labelAt(m->safetyMap(), 1.9, 0.0), memory ? L::kNonGround : L::kLevel)
+        << memory << ascii(m->safetyMap());
+    EXPECT_EQ(labelAt(m->safetyMap(), 1.3, 0.0), L::kLevel);
+    // The box's voxels cleared (free space observed through them): forgotten.
+    VoxelGrid& g = m->grid();
+    const VoxelIndex lo = g.indexOf(Eigen::Vector3f(1.95f, -0.4f, 0.1f));
+    const VoxelIndex hi = g.indexOf(Eigen::Vector3f(2.5f, 0.4f, 0.7f));
+    for (int w = lo.w; w <= hi.w; ++w)
+      for (int v = lo.v; v <= hi.v; ++v)
+        for (int u = lo.u; u <= hi.u; ++u)
+          g.setLogOdds(VoxelIndex{u, v, w}, g.config().lop_min);
+    m->computeSafetyMap(robot);
+    EXPECT_EQ(labelAt(m->safetyMap(), 1.9, 0.0), L::kLevel) << memory << ascii(m->safetyMap());
+    EXPECT_EQ(m->faceMemorySize(), 0u);
+  }
+}
+
 TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
   const std::vector<Frame> frames = drive(floorWithBox());
   for (const bool memory : {false, true}) {
