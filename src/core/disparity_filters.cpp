@@ -110,6 +110,40 @@ bool cpuHasAvx2Fma() {
   return has;
 }
 
+// |Laplacian| (ksize 1, borders replicated) of row y of the w x h image `blurred` into a[0, w),
+// with rw replicated columns on each side: textureEnergyOwn()'s third step.
+__attribute__((target("avx2,fma"))) void absLaplacianRow(const float* blurred, int w, int h, int y,
+                                                         int rw, float* a) {
+  const __m256 minus4 = _mm256_set1_ps(-4.0f);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  auto clampRow = [h](int yy) { return std::min(std::max(yy, 0), h - 1); };
+  const float* up = blurred + static_cast<std::size_t>(clampRow(y - 1)) * w;
+  const float* c = blurred + static_cast<std::size_t>(y) * w;
+  const float* down = blurred + static_cast<std::size_t>(clampRow(y + 1)) * w;
+  auto laplacian = [&](int x) {
+    float s = up[x] + c[x > 0 ? x - 1 : 0];
+    s = s + -4.0f * c[x];
+    s = s + c[x < w - 1 ? x + 1 : w - 1];
+    s = s + down[x];
+    return std::fabs(s);
+  };
+  a[0] = laplacian(0);
+  int x = 1;
+  for (; x + 8 <= w - 1; x += 8) {
+    __m256 s = _mm256_add_ps(_mm256_loadu_ps(up + x), _mm256_loadu_ps(c + x - 1));
+    s = _mm256_fmadd_ps(_mm256_loadu_ps(c + x), minus4, s);  // exact product: same as add
+    s = _mm256_add_ps(s, _mm256_loadu_ps(c + x + 1));
+    s = _mm256_add_ps(s, _mm256_loadu_ps(down + x));
+    _mm256_storeu_ps(a + x, _mm256_andnot_ps(sign, s));
+  }
+  for (; x < w; ++x)
+    a[x] = laplacian(x);
+  for (int k = 1; k <= rw; ++k) {
+    a[-k] = a[0];
+    a[w - 1 + k] = a[w - 1];
+  }
+}
+
 // The texture energy as OpenCV 4.6 computes it on a CPU with AVX2 (its filter code is dispatched
 // there and uses FMA), step for step, so that every float is the same:
 //  - GaussianBlur (ksize >= 7: RowFilter, then SymmColumnFilter): along the row
@@ -197,41 +231,41 @@ __attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
     }
   }
 
-  // |Laplacian| of each row, then its window sums along the row.
-  const __m256 minus4 = _mm256_set1_ps(-4.0f);
-  const __m256 sign = _mm256_set1_ps(-0.0f);
-  float* a = ws->texture_row.data() + rw;  // |LoG| of one row, rw replicated columns each side
-  for (int y = 0; y < h; ++y) {
-    const float* blurred = ws->texture_blurred.data();
-    const float* up = blurred + static_cast<std::size_t>(clampRow(y - 1)) * w;
-    const float* c = blurred + static_cast<std::size_t>(y) * w;
-    const float* down = blurred + static_cast<std::size_t>(clampRow(y + 1)) * w;
-    auto laplacian = [&](int x) {
-      float s = up[x] + c[x > 0 ? x - 1 : 0];
-      s = s + -4.0f * c[x];
-      s = s + c[x < w - 1 ? x + 1 : w - 1];
-      s = s + down[x];
-      return std::fabs(s);
-    };
-    a[0] = laplacian(0);
-    int x = 1;
-    for (; x + 8 <= w - 1; x += 8) {
-      __m256 s = _mm256_add_ps(_mm256_loadu_ps(up + x), _mm256_loadu_ps(c + x - 1));
-      s = _mm256_fmadd_ps(_mm256_loadu_ps(c + x), minus4, s);  // exact product: same as add
-      s = _mm256_add_ps(s, _mm256_loadu_ps(c + x + 1));
-      s = _mm256_add_ps(s, _mm256_loadu_ps(down + x));
-      _mm256_storeu_ps(a + x, _mm256_andnot_ps(sign, s));
-    }
-    for (; x < w; ++x)
-      a[x] = laplacian(x);
-    for (int k = 1; k <= rw; ++k) {
-      a[-k] = a[0];
-      a[w - 1 + k] = a[w - 1];
-    }
-    double* sums = ws->texture_sums.data() + static_cast<std::size_t>(y) * w;
+  // |Laplacian| of each row, then its window sums along the row. The running sum of a row is one
+  // chain of dependent double additions; four rows at a time run four chains side by side
+  // (issue 18), each with its row's operations in the same order.
+  const std::size_t lane = static_cast<std::size_t>(padded);
+  ws->texture_log.resize(4 * lane);
+  auto firstSum = [&](const float* a) {
     double s = 0.0;
     for (int k = -rw; k <= rw; ++k)
       s += static_cast<double>(a[k]);
+    return s;
+  };
+  int y = 0;
+  for (; y + 4 <= h; y += 4) {
+    float* a[4];
+    double* sums[4];
+    double s[4];
+    for (int j = 0; j < 4; ++j) {
+      a[j] = ws->texture_log.data() + j * lane + rw;
+      absLaplacianRow(ws->texture_blurred.data(), w, h, y + j, rw, a[j]);
+      sums[j] = ws->texture_sums.data() + static_cast<std::size_t>(y + j) * w;
+      s[j] = firstSum(a[j]);
+      sums[j][0] = s[j];
+    }
+    for (int xx = 1; xx < w; ++xx) {
+      for (int j = 0; j < 4; ++j) {
+        s[j] += static_cast<double>(a[j][xx + rw]) - static_cast<double>(a[j][xx - rw - 1]);
+        sums[j][xx] = s[j];
+      }
+    }
+  }
+  for (; y < h; ++y) {
+    float* a = ws->texture_log.data() + rw;
+    absLaplacianRow(ws->texture_blurred.data(), w, h, y, rw, a);
+    double* sums = ws->texture_sums.data() + static_cast<std::size_t>(y) * w;
+    double s = firstSum(a);
     sums[0] = s;
     for (int xx = 1; xx < w; ++xx) {
       s += static_cast<double>(a[xx + rw]) - static_cast<double>(a[xx - rw - 1]);
@@ -295,6 +329,34 @@ bool textureEnergy(const cv::Mat& left, const TextureValidationConfig& config, c
   return true;
 }
 
+namespace {
+
+// filterLowTexture()'s test on one row, 8 pixels at a time: a valid disparity whose energy is
+// below min_energy becomes 0. Returns how many; *done: columns covered.
+__attribute__((target("avx2"))) int lowTextureRowAvx2(const float* energy, float min_energy,
+                                                      int cols, float* d, int* done) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 largest = _mm256_set1_ps(std::numeric_limits<float>::max());
+  const __m256 threshold = _mm256_set1_ps(min_energy);
+  int removed = 0, x = 0;
+  for (; x + 8 <= cols; x += 8) {
+    const __m256 v = _mm256_loadu_ps(d + x);
+    const __m256 valid =
+        _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GT_OQ), _mm256_cmp_ps(v, largest, _CMP_LE_OQ));
+    const __m256 reject =
+        _mm256_and_ps(valid, _mm256_cmp_ps(_mm256_loadu_ps(energy + x), threshold, _CMP_LT_OQ));
+    const int mask = _mm256_movemask_ps(reject);
+    if (mask != 0) {
+      _mm256_storeu_ps(d + x, _mm256_blendv_ps(v, zero, reject));
+      removed += __builtin_popcount(static_cast<unsigned>(mask));
+    }
+  }
+  *done = x;
+  return removed;
+}
+
+}  // namespace
+
 int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config, cv::Mat* disparity,
                      DisparityFilterWorkspace* workspace) {
   if (!isFloatImage(disparity) || left.empty() || left.type() != CV_8UC1 ||
@@ -306,11 +368,14 @@ int filterLowTexture(const cv::Mat& left, const TextureValidationConfig& config,
   textureEnergy(left, config, &ws.energy, &ws);
 
   const float min_energy = static_cast<float>(config.min_energy);
+  const bool avx2 = cpuHasAvx2Fma();
   int removed = 0;
   for (int y = 0; y < disparity->rows; ++y) {
     float* d = disparity->ptr<float>(y);
     const float* e = ws.energy.ptr<float>(y);
-    for (int x = 0; x < disparity->cols; ++x) {
+    int x = 0;
+    if (avx2) removed += lowTextureRowAvx2(e, min_energy, disparity->cols, d, &x);
+    for (; x < disparity->cols; ++x) {
       if (isValidDisparity(d[x]) && e[x] < min_energy) {
         d[x] = kInvalidDisparity;
         ++removed;
@@ -495,6 +560,22 @@ std::string SpikeRemovalConfig::validate() const {
   return {};
 }
 
+namespace {
+
+// The first x in [x, end) with row[x] > 0, or end: 8 floats per step (AVX2).
+__attribute__((target("avx2"))) int nextPositive(const float* row, int x, int end) {
+  const __m256 zero = _mm256_setzero_ps();
+  for (; x + 8 <= end; x += 8) {
+    const int mask = _mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(row + x), zero, _CMP_GT_OQ));
+    if (mask != 0) return x + __builtin_ctz(static_cast<unsigned>(mask));
+  }
+  for (; x < end; ++x)
+    if (row[x] > 0.0f) return x;
+  return end;
+}
+
+}  // namespace
+
 int filterSpikes(const SpikeRemovalConfig& config, cv::Mat* disparity,
                  DisparityFilterWorkspace* workspace) {
   if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
@@ -513,8 +594,12 @@ int filterSpikes(const SpikeRemovalConfig& config, cv::Mat* disparity,
   const std::size_t min_size = static_cast<std::size_t>(config.min_region_size);
   const int offsets[4] = {-1, 1, -stride, stride};  // 4-neighbourhood N(i) (002, Sec. 4.2)
   int removed = 0;
+  const bool avx2 = cpuHasAvx2();
   for (int y = 1; y <= disparity->rows; ++y) {
     for (int x = 1; x <= disparity->cols; ++x) {
+      // Most pixels are invalid or labelled: skip 8 of them at a time (issue 18).
+      if (avx2) x = nextPositive(surface + y * stride, x, disparity->cols + 1);
+      if (x > disparity->cols) break;
       const int seed = y * stride + x;
       if (!(surface[seed] > 0.0f)) continue;  // invalid or already labelled
       // Breadth-first flood fill of one continuous-disparity surface: j joins i's surface when
@@ -561,6 +646,78 @@ std::string NeighbourConsistencyConfig::validate() const {
   return {};
 }
 
+namespace {
+
+// One pixel of filterInconsistentNeighbours() from the padded copy: true when it is rejected.
+bool neighbourReject(const cv::Mat& padded, int y, int x, int r, float tolerance, float fraction,
+                     bool isolated) {
+  const float c = padded.ptr<float>(y + r)[x + r];
+  float n = 0.0f, agree = 0.0f;
+  for (int dy = -r; dy <= r; ++dy) {
+    const float* row = padded.ptr<float>(y + r + dy) + r + x;
+    for (int dx = -r; dx <= r; ++dx) {
+      if (dy == 0 && dx == 0) continue;
+      const float v = row[dx];
+      const float ok = v > 0.0f ? 1.0f : 0.0f;
+      n += ok;
+      agree += std::fabs(v - c) <= tolerance ? ok : 0.0f;
+    }
+  }
+  return n == 0.0f ? isolated : agree < fraction * n - 1e-3f;
+}
+
+// filterInconsistentNeighbours() on one row, 8 centres at a time with every window offset in
+// registers (issue 18), skipping blocks without a valid centre; the same float operations as
+// the scalar rule (no FMA: this function is compiled for AVX2 alone), so the same result.
+// Writes 0 into the rejected pixels of `out`, returns how many; *done: columns covered.
+__attribute__((target("avx2"))) int neighbourRowAvx2(const cv::Mat& padded, int y, int r, int cols,
+                                                     float tolerance, float fraction, bool isolated,
+                                                     float* out, int* done) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 one = _mm256_set1_ps(1.0f);
+  const __m256 sign = _mm256_set1_ps(-0.0f);
+  const __m256 tol = _mm256_set1_ps(tolerance);
+  const __m256 frac = _mm256_set1_ps(fraction);
+  const __m256 margin = _mm256_set1_ps(1e-3f);
+  const __m256 iso = _mm256_castsi256_ps(_mm256_set1_epi32(isolated ? -1 : 0));
+  const float* centre = padded.ptr<float>(y + r) + r;
+  const std::size_t step = padded.step1();
+  int removed = 0, x = 0;
+  for (; x + 8 <= cols; x += 8) {
+    const __m256 c = _mm256_loadu_ps(centre + x);
+    const __m256 c_valid = _mm256_cmp_ps(c, zero, _CMP_GT_OQ);
+    if (_mm256_movemask_ps(c_valid) == 0) continue;
+    __m256 n = zero, agree = zero;
+    const float* base =
+        centre + x - static_cast<std::ptrdiff_t>(r) * static_cast<std::ptrdiff_t>(step);
+    for (int dy = -r; dy <= r; ++dy, base += step) {
+      for (int dx = -r; dx <= r; ++dx) {
+        if (dy == 0 && dx == 0) continue;
+        const __m256 v = _mm256_loadu_ps(base + dx);
+        const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_GT_OQ), one);
+        n = _mm256_add_ps(n, ok);
+        const __m256 near =
+            _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(v, c)), tol, _CMP_LE_OQ);
+        agree = _mm256_add_ps(agree, _mm256_and_ps(near, ok));
+      }
+    }
+    const __m256 none = _mm256_cmp_ps(n, zero, _CMP_EQ_OQ);
+    const __m256 few =
+        _mm256_cmp_ps(agree, _mm256_sub_ps(_mm256_mul_ps(frac, n), margin), _CMP_LT_OQ);
+    const __m256 reject =
+        _mm256_and_ps(c_valid, _mm256_or_ps(_mm256_and_ps(none, iso), _mm256_andnot_ps(none, few)));
+    const int mask = _mm256_movemask_ps(reject);
+    if (mask != 0) {
+      _mm256_storeu_ps(out + x, _mm256_blendv_ps(_mm256_loadu_ps(out + x), zero, reject));
+      removed += __builtin_popcount(static_cast<unsigned>(mask));
+    }
+  }
+  *done = x;
+  return removed;
+}
+
+}  // namespace
+
 int filterInconsistentNeighbours(const NeighbourConsistencyConfig& config, cv::Mat* disparity,
                                  DisparityFilterWorkspace* workspace) {
   if (!isFloatImage(disparity) || !config.validate().empty()) return -1;
@@ -583,6 +740,22 @@ int filterInconsistentNeighbours(const NeighbourConsistencyConfig& config, cv::M
   const float fraction = static_cast<float>(config.min_agreeing_fraction);
   const float isolated = config.remove_isolated ? 1.0f : 0.0f;
   int removed = 0;
+  if (cpuHasAvx2()) {
+    for (int y = 0; y < disparity->rows; ++y) {
+      float* out = disparity->ptr<float>(y);
+      int done = 0;
+      removed += neighbourRowAvx2(ws.padded, y, r, cols, tolerance, fraction,
+                                  config.remove_isolated, out, &done);
+      for (int x = done; x < cols; ++x) {
+        if (!(ws.padded.ptr<float>(y + r)[x + r] > 0.0f)) continue;
+        if (neighbourReject(ws.padded, y, x, r, tolerance, fraction, config.remove_isolated)) {
+          out[x] = kInvalidDisparity;
+          ++removed;
+        }
+      }
+    }
+    return removed;
+  }
   for (int y = 0; y < disparity->rows; ++y) {
     const float* centre = ws.padded.ptr<float>(y + r) + r;
     std::fill(valid_count, valid_count + cols8, 0.0f);

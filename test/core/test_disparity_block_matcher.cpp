@@ -105,6 +105,13 @@ void check(const cv::Mat& left, const cv::Mat& right, const BlockMatcherParams& 
   EXPECT_GT(cv::countNonZero(raw_right > 0), 0) << what;
 }
 
+// The winner kernels this CPU can run: AVX-512 (when present) and AVX2.
+std::vector<bool> kernels() {
+  LeftRightBlockMatcher::allowAvx512(true);
+  if (LeftRightBlockMatcher::usesAvx512()) return {true, false};
+  return {false};
+}
+
 TEST(LeftRightBlockMatcher, MatchesOpenCvStereoBmBothWays) {
   if (!LeftRightBlockMatcher::supports(BlockMatcherParams())) {
     GTEST_SKIP() << "no AVX2 on this CPU: the pipeline uses its two OpenCV matchers";
@@ -120,27 +127,32 @@ TEST(LeftRightBlockMatcher, MatchesOpenCvStereoBmBothWays) {
       {480, 640, 0, 64, 9, 31, 15, 1}, {480, 640, 0, 64, 9, 31, 15, 2},
       {97, 130, 0, 16, 5, 1, 15, 4},
   };
-  LeftRightBlockMatcher matcher;  // one for every case: buffers reused across sizes
-  int seed = 1;
-  for (const Case& c : cases) {
-    BlockMatcherParams p;
-    p.min_disparity = c.min_disparity;
-    p.num_disparities = c.num_disparities;
-    p.block_size = c.block_size;
-    p.pre_filter_cap = c.cap;
-    p.uniqueness_ratio = c.ratio;
-    for (int k = 0; k < 2; ++k, ++seed) {
-      cv::Mat left, right;
-      makePair(c.rows, c.cols, seed, &left, &right);
-      const std::string what = std::to_string(c.cols) + "x" + std::to_string(c.rows) + " min " +
-                               std::to_string(c.min_disparity) + " n " +
-                               std::to_string(c.num_disparities) + " block " +
-                               std::to_string(c.block_size) + " cap " + std::to_string(c.cap) +
-                               " ratio " + std::to_string(c.ratio) + " stripes " +
-                               std::to_string(c.stripes) + " seed " + std::to_string(seed);
-      check(left, right, p, c.stripes, &matcher, what);
+  // Both winner kernels where the CPU has AVX-512 (the AVX2 one forced), the AVX2 one elsewhere.
+  for (const bool avx512 : kernels()) {
+    LeftRightBlockMatcher::allowAvx512(avx512);
+    LeftRightBlockMatcher matcher;  // one for every case: buffers reused across sizes
+    int seed = 1;
+    for (const Case& c : cases) {
+      BlockMatcherParams p;
+      p.min_disparity = c.min_disparity;
+      p.num_disparities = c.num_disparities;
+      p.block_size = c.block_size;
+      p.pre_filter_cap = c.cap;
+      p.uniqueness_ratio = c.ratio;
+      for (int k = 0; k < 2; ++k, ++seed) {
+        cv::Mat left, right;
+        makePair(c.rows, c.cols, seed, &left, &right);
+        const std::string what =
+            std::to_string(c.cols) + "x" + std::to_string(c.rows) + " min " +
+            std::to_string(c.min_disparity) + " n " + std::to_string(c.num_disparities) +
+            " block " + std::to_string(c.block_size) + " cap " + std::to_string(c.cap) + " ratio " +
+            std::to_string(c.ratio) + " stripes " + std::to_string(c.stripes) + " seed " +
+            std::to_string(seed) + (avx512 ? " (AVX-512 kernel)" : " (AVX2 kernel)");
+        check(left, right, p, c.stripes, &matcher, what);
+      }
     }
   }
+  LeftRightBlockMatcher::allowAvx512(true);
 }
 
 TEST(LeftRightBlockMatcher, UnsupportedSettings) {
@@ -159,16 +171,20 @@ TEST(LeftRightBlockMatcher, FlatAndSaturatedImages) {
   if (!LeftRightBlockMatcher::supports(BlockMatcherParams())) GTEST_SKIP() << "no AVX2";
   // Ties everywhere: the winner's index and the uniqueness test decide alone.
   BlockMatcherParams p;
-  LeftRightBlockMatcher matcher;
-  for (const int value : {0, 128, 255}) {
-    const cv::Mat flat(120, 200, CV_8UC1, cv::Scalar(value));
-    cv::Mat expected_left, raw_left, raw_right;
-    openCvMatcher(p)->compute(flat, flat, expected_left);
-    matcher.compute(flat, flat, p, 1, &raw_left, &raw_right);
-    cv::Point first;
-    EXPECT_EQ(countDifferences(expected_left, raw_left, &first), 0) << value;
-    EXPECT_EQ(countDifferences(openCvRight(flat, flat, p), raw_right, &first), 0) << value;
+  for (const bool avx512 : kernels()) {
+    LeftRightBlockMatcher::allowAvx512(avx512);
+    LeftRightBlockMatcher matcher;
+    for (const int value : {0, 128, 255}) {
+      const cv::Mat flat(120, 200, CV_8UC1, cv::Scalar(value));
+      cv::Mat expected_left, raw_left, raw_right;
+      openCvMatcher(p)->compute(flat, flat, expected_left);
+      matcher.compute(flat, flat, p, 1, &raw_left, &raw_right);
+      cv::Point first;
+      EXPECT_EQ(countDifferences(expected_left, raw_left, &first), 0) << value;
+      EXPECT_EQ(countDifferences(openCvRight(flat, flat, p), raw_right, &first), 0) << value;
+    }
   }
+  LeftRightBlockMatcher::allowAvx512(true);
 }
 
 }  // namespace

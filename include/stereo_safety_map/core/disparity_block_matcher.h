@@ -18,6 +18,7 @@
 //    (min_disparity - 1) * 16.
 // Supported: BM with min_disparity 0, textureThreshold 0 and no speckle filter, sums that fit 16
 // bits, and a CPU with AVX2 (supports()); otherwise the pipeline keeps its two OpenCV matchers.
+// The winner search has an AVX-512BW / VL kernel too, used where the CPU has it (allowAvx512()).
 // (With min_disparity > 0 OpenCV 4.6's StereoBM writes min_disparity * 16 into a few pixels
 // outside its valid region, which this matcher does not reproduce.)
 #pragma once
@@ -42,6 +43,13 @@ class LeftRightBlockMatcher {
   /// True when this CPU and these settings can use the matcher (AVX2, min_disparity 0,
   /// num_disparities a multiple of 16, block_size odd >= 5, the window's SAD below 2^14).
   static bool supports(const BlockMatcherParams& params);
+
+  /// The winner search runs with AVX-512BW / VL mask registers where the CPU has them (same
+  /// output, faster), with AVX2 alone otherwise. false forces the AVX2 kernel in every matcher of
+  /// the process (tests compare the two); not thread-safe against a running compute().
+  static void allowAvx512(bool allowed);
+  /// True when compute() uses the AVX-512 kernel now.
+  static bool usesAvx512();
 
   /// `left`, `right`: CV_8UC1, same size, wider than min_disparity + num_disparities + block_size
   /// and higher than block_size. Writes CV_16S disparities in 1/16 px: *raw_left indexed by left
