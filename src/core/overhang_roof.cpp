@@ -79,19 +79,6 @@ int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
   int marked = 0;
   for (int c = 0; c < n; ++c) {
     if (!isSafe(m.labels[c])) continue;
-    // The last frame's camera sees the cell's floor: its voxel (or one beside it in height, where
-    // the floor's noise falls) got a point of that frame. Without this, cells outside the view
-    // (behind and beside the chair, under the camera) were tested against lines of sight no ray
-    // took, and a column beside the camera made a disk of Non-ground around the chair
-    // (dataset 2: FP 8.1 -> 15.1 % with the memory keeping those marks).
-    const std::int32_t w_floor = hm.atIndex(c);
-    if (w_floor == HeightMap::kNoHeight) continue;
-    const int cu = hm.minU() + c % width, cv = hm.minV() + c / width;
-    if (!grid.hitInLastFrame(VoxelIndex{cu, cv, w_floor}) &&
-        !grid.hitInLastFrame(VoxelIndex{cu, cv, w_floor - 1}) &&
-        !grid.hitInLastFrame(VoxelIndex{cu, cv, w_floor + 1})) {
-      continue;
-    }
     const double x = (hm.minU() + c % width) * l, y = (hm.minV() + c / width) * l;
     const double dx = x - camera.x(), dy = y - camera.y();
     const double d = std::hypot(dx, dy);

@@ -238,12 +238,6 @@ class VoxelGrid {
   /// storage: the height map's inner loop (000 Sec. V-A).
   bool occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const;
 
-  /// True when the voxel received a point in the last integrate() call (its one point of the
-  /// frame, 000 Sec. IV); false outside the window and before the first frame.
-  bool hitInLastFrame(const VoxelIndex& i) const {
-    return stamp_now_ != 0 && contains(i) && stamp_[linear(i)] == stamp_now_;
-  }
-
   /// Sets a voxel's log-odds directly (clamped). For tests and for fusing external cues.
   void setLogOdds(const VoxelIndex& i, int lop);
 
