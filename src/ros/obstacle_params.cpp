@@ -53,8 +53,9 @@ const ParamFieldList<ObstacleDetectionRosConfig>& obstacleDetectionRosFields() {
     addSyncFields(l);
     addMaxRateField(l).doc(
         "most frames processed per second, 0 = every frame (not in 003); newer frames replace a "
-        "waiting one. 15: the safety map's cue lives 1 s, and with it the default graph lost no "
-        "frame of a 30 Hz camera on two cores (its p95 delay still exceeds 50 ms there).");
+        "waiting one. 0: the default graph keeps a 30 Hz camera on two cores with the detector "
+        "on every frame (issue 18); 15 or less on a smaller machine (the safety map's cue lives "
+        "1 s).");
     l.add("min_depth", &R::min_depth)
         .atLeast(0)
         .unit("m")

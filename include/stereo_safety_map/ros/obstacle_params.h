@@ -29,11 +29,12 @@ struct ObstacleDetectionRosConfig {
   std::string method = "3d";         ///< "3d" (003 OD/OS Algorithm 2) or "columnwise" (baseline)
   int queue_size = 5;                ///< subscriber / tf filter / sync queue [messages]
   bool approximate_sync = false;     ///< approximate DisparityImage-CameraInfo sync
-  /// Most frames processed per second [Hz]; 0 = every frame. 15 by default: the safety map's
-  /// cue lives 1 s (obstacle_cue_lifetime), so 15 cues a second are as good as 30, and with
-  /// the detector at half rate the default graph lost no frame of a 30 Hz camera on two cores
-  /// (its p95 delay still exceeds 50 ms there; issue 18, README Performance).
-  double max_rate = 15.0;
+  /// Most frames processed per second [Hz]; 0 = every frame (the default since the twenty-eighth
+  /// session: with the faster disparity stage the default graph keeps a 30 Hz camera on two
+  /// cores with the detector on every frame, 0 lost, p95 27.9-30.3 ms in three replays, and
+  /// /obstacles' own p95 falls from ~54 to ~24 ms; issue 18, docs/performance.md). A positive
+  /// rate throttles it on a smaller machine; the safety map's cue lives 1 s.
+  double max_rate = 0.0;
   double min_depth = 0.2;  ///< range image: nearer points are missing [m] (the grid's min_range)
   double max_depth = 8.0;  ///< range image: farther points are missing [m] (the grid's max_range)
   double focal_length = 0.0;  ///< cloud input: f [px]; 0 = estimated from the organised cloud
