@@ -535,9 +535,9 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       const std::int32_t w = height_map_.atIndex(f.face_cell);
       if (w == HeightMap::kNoHeight) continue;
       face_memory_[key(u, v)] =
-          RoofMark{m.min_u + f.face_cell % m.width, m.min_v + f.face_cell / m.width, w};
+          ColumnVoxelMark{m.min_u + f.face_cell % m.width, m.min_v + f.face_cell / m.width, w};
     }
-    apply(face_memory_, [&](int, int, const RoofMark& face) {
+    apply(face_memory_, [&](int, int, const ColumnVoxelMark& face) {
       return grid_.logOdds(VoxelIndex{face.u, face.v, face.w}) > clear_lop;
     });
   }
@@ -551,9 +551,9 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   }
   for (const OverhangRoofMark& r : overhang_scratch_.marks) {
     const int u = m.min_u + r.cell % m.width, v = m.min_v + r.cell / m.width;
-    roof_memory_[key(u, v)] = RoofMark{r.roof_u, r.roof_v, r.roof_w};
+    roof_memory_[key(u, v)] = ColumnVoxelMark{r.roof_u, r.roof_v, r.roof_w};
   }
-  apply(roof_memory_, [&](int, int, const RoofMark& roof) {
+  apply(roof_memory_, [&](int, int, const ColumnVoxelMark& roof) {
     return grid_.logOdds(VoxelIndex{roof.u, roof.v, roof.w}) > clear_lop;
   });
 }

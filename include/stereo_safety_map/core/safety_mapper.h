@@ -279,17 +279,19 @@ class SafetyMapper {
     std::int32_t hi;
   };
   std::unordered_map<std::int64_t, ObstacleMark> obstacle_memory_;
-  // OverhangRoofConfig::remember: cells (global (u, v)) marked as floor under a roof, with the
-  // top voxel of the roof column that marked them last.
-  struct RoofMark {
+  // A remembered cell's witness: the voxel (global indices) whose staying occupied keeps the
+  // cell Non-ground (the roof's or the face's top voxel).
+  struct ColumnVoxelMark {
     std::int32_t u;
     std::int32_t v;
     std::int32_t w;
   };
-  std::unordered_map<std::int64_t, RoofMark> roof_memory_;
+  // OverhangRoofConfig::remember: cells (global (u, v)) marked as floor under a roof, with the
+  // top voxel of the roof column that marked them last.
+  std::unordered_map<std::int64_t, ColumnVoxelMark> roof_memory_;
   // SafetyLabellingConfig::obstacle_face_margin under obstacle_memory: floor cells marked as
   // holding an obstacle's face, with the top voxel of the face's column that marked them last.
-  std::unordered_map<std::int64_t, RoofMark> face_memory_;
+  std::unordered_map<std::int64_t, ColumnVoxelMark> face_memory_;
   std::vector<std::int64_t> memory_drop_;  // scratch
   std::size_t cells_remembered_ = 0;       // cells of the last map kept Non-ground by it
   FrameLevellingScratch levelling_scratch_;
