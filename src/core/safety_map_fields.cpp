@@ -496,8 +496,7 @@ ParamFieldList<M> makeMapperFields() {
   l.add("overhang_roof", &M::overhang_roof, &OverhangRoofConfig::enabled)
       .doc(
           "a safe cell whose floor the camera sees under the top of an overhang column (a top "
-          "below the camera with rays observed passing below it) at most overhang_roof_max_span "
-          "before it is "
+          "with rays observed passing below it) at most overhang_roof_max_span before it is "
           "Non-ground: the table top or shelf board stereo saw only at its front edge (ours, "
           "overhang_roof.h; false = 000).");
   l.add("overhang_roof_min_clearance", &M::overhang_roof, &OverhangRoofConfig::min_clearance)
