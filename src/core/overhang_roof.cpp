@@ -92,12 +92,6 @@ int markFloorUnderOverhangs(const VoxelGrid& grid, const HeightMap& hm,
     for (double s = d - step; s > std::max(0.0, d - config.max_span); s -= step) {
       const int e = cellAt(camera.x() + ex * s, camera.y() + ey * s);
       if (e < 0 || e == c || !std::isfinite(roof_z[e])) continue;
-      // A top at or above the camera is seen from below, its underside in view: its own
-      // columns are occupied and Non-ground by 000 Sec. V-A. The rule is for tops seen edge-on
-      // from above. Without this, a floating phantom at the camera's height made every floor
-      // cell within max_span "behind" it from the camera Non-ground, beside and behind the
-      // chair too, and the memory kept them (dataset 2: FP 8.1 -> 15.1 %, docs/evaluation.md).
-      if (roof_z[e] >= camera.z()) continue;
       const double z_line = camera.z() + (zc - camera.z()) * (s / d);
       if (z_line < roof_z[e]) {
         roof = e;

@@ -14,8 +14,7 @@
 // floor passes below that column's top). How deep the top reaches behind its front edge is not
 // seen (its back edge, at the same grazing angle, is mostly lost too), so the floor seen under
 // it is an obstacle for `max_span` behind the edge: a safety map errs on the safe side. An
-// "overhang column" has its top at least `min_clearance` above the robot's base, below the
-// camera (a top at or above it is seen from below, its underside in view) and, between
+// "overhang column" has its top at least `min_clearance` above the robot's base and, between
 // the floor's band (the base's voxel and the one above it) and the top, at most one more
 // occupied voxel (a thick top or a front face) and at least `min_free_voxels` voxels observed
 // free (log-odds below the prior: rays passed under the top), so a wall, a pole or a box
