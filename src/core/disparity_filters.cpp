@@ -144,6 +144,25 @@ __attribute__((target("avx2,fma"))) void absLaplacianRow(const float* blurred, i
   }
 }
 
+// One row of textureEnergyOwn()'s box filter down the columns: s0 = column + in, the output
+// (float)(s0 * scale), column = s0 - out (OpenCV's running column sums in double).
+__attribute__((target("avx2,fma"))) void boxColumnRow(const double* in, const double* out,
+                                                      double scale, int w, double* column,
+                                                      float* o) {
+  const __m256d scale4 = _mm256_set1_pd(scale);
+  int x = 0;
+  for (; x + 4 <= w; x += 4) {
+    const __m256d s0 = _mm256_add_pd(_mm256_loadu_pd(column + x), _mm256_loadu_pd(in + x));
+    _mm_storeu_ps(o + x, _mm256_cvtpd_ps(_mm256_mul_pd(s0, scale4)));
+    _mm256_storeu_pd(column + x, _mm256_sub_pd(s0, _mm256_loadu_pd(out + x)));
+  }
+  for (; x < w; ++x) {
+    const double s0 = column[x] + in[x];
+    o[x] = static_cast<float>(s0 * scale);
+    column[x] = s0 - out[x];
+  }
+}
+
 // The texture energy as OpenCV 4.6 computes it on a CPU with AVX2 (its filter code is dispatched
 // there and uses FMA), step for step, so that every float is the same:
 //  - GaussianBlur (ksize >= 7: RowFilter, then SymmColumnFilter): along the row
@@ -174,7 +193,6 @@ __attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
   const int rw = config.window_size / 2;
   const int padded = w + 2 * std::max(r, rw) + 8;
   ws->texture_row.resize(static_cast<std::size_t>(padded));
-  ws->texture_sums.resize(area);
   ws->texture_column.assign(static_cast<std::size_t>(w), 0.0);
 
   // Gaussian along the rows.
@@ -242,6 +260,34 @@ __attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
       s += static_cast<double>(a[k]);
     return s;
   };
+  // The window sums of a row go into a ring of `ring` rows, and each energy row is written as
+  // soon as the rows of its window are in it (issue 18: a full-image double buffer went through
+  // memory twice). The ring holds what the consumer still needs: rows y - rw .. y + rw of the
+  // next output row y, and at most the four rows produced ahead of it.
+  const int ring = 2 * rw + 8;
+  ws->texture_sums.resize(static_cast<std::size_t>(ring) * w);
+  auto sumsRow = [&](int row) {
+    return ws->texture_sums.data() + static_cast<std::size_t>(row % ring) * w;
+  };
+  energy->create(h, w, CV_32FC1);
+  const double scale = 1.0 / (static_cast<double>(config.window_size) * config.window_size);
+  double* column = ws->texture_column.data();
+  int produced = 0, next_out = 0;
+  // Window sums down the columns, scaled to the mean, for every row whose window is complete.
+  auto consume = [&]() {
+    while (next_out < h && clampRow(next_out + rw) < produced) {
+      if (next_out == 0) {
+        for (int k = -rw; k < rw; ++k) {
+          const double* in = sumsRow(clampRow(k));
+          for (int x = 0; x < w; ++x)
+            column[x] += in[x];
+        }
+      }
+      boxColumnRow(sumsRow(clampRow(next_out + rw)), sumsRow(clampRow(next_out - rw)), scale, w,
+                   column, energy->ptr<float>(next_out));
+      ++next_out;
+    }
+  };
   int y = 0;
   for (; y + 4 <= h; y += 4) {
     float* a[4];
@@ -250,7 +296,7 @@ __attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
     for (int j = 0; j < 4; ++j) {
       a[j] = ws->texture_log.data() + j * lane + rw;
       absLaplacianRow(ws->texture_blurred.data(), w, h, y + j, rw, a[j]);
-      sums[j] = ws->texture_sums.data() + static_cast<std::size_t>(y + j) * w;
+      sums[j] = sumsRow(y + j);
       s[j] = firstSum(a[j]);
       sums[j][0] = s[j];
     }
@@ -260,45 +306,21 @@ __attribute__((target("avx2,fma"))) void textureEnergyOwn(const cv::Mat& left,
         sums[j][xx] = s[j];
       }
     }
+    produced = y + 4;
+    consume();
   }
   for (; y < h; ++y) {
     float* a = ws->texture_log.data() + rw;
     absLaplacianRow(ws->texture_blurred.data(), w, h, y, rw, a);
-    double* sums = ws->texture_sums.data() + static_cast<std::size_t>(y) * w;
+    double* sums = sumsRow(y);
     double s = firstSum(a);
     sums[0] = s;
     for (int xx = 1; xx < w; ++xx) {
       s += static_cast<double>(a[xx + rw]) - static_cast<double>(a[xx - rw - 1]);
       sums[xx] = s;
     }
-  }
-
-  // Window sums down the columns, scaled to the mean.
-  energy->create(h, w, CV_32FC1);
-  const double scale = 1.0 / (static_cast<double>(config.window_size) * config.window_size);
-  const double* sums = ws->texture_sums.data();
-  double* column = ws->texture_column.data();
-  for (int k = -rw; k < rw; ++k) {
-    const double* in = sums + static_cast<std::size_t>(clampRow(k)) * w;
-    for (int x = 0; x < w; ++x)
-      column[x] += in[x];
-  }
-  const __m256d scale4 = _mm256_set1_pd(scale);
-  for (int y = 0; y < h; ++y) {
-    const double* in = sums + static_cast<std::size_t>(clampRow(y + rw)) * w;
-    const double* out = sums + static_cast<std::size_t>(clampRow(y - rw)) * w;
-    float* o = energy->ptr<float>(y);
-    int x = 0;
-    for (; x + 4 <= w; x += 4) {
-      const __m256d s0 = _mm256_add_pd(_mm256_loadu_pd(column + x), _mm256_loadu_pd(in + x));
-      _mm_storeu_ps(o + x, _mm256_cvtpd_ps(_mm256_mul_pd(s0, scale4)));
-      _mm256_storeu_pd(column + x, _mm256_sub_pd(s0, _mm256_loadu_pd(out + x)));
-    }
-    for (; x < w; ++x) {
-      const double s0 = column[x] + in[x];
-      o[x] = static_cast<float>(s0 * scale);
-      column[x] = s0 - out[x];
-    }
+    produced = y + 1;
+    consume();
   }
 }
 

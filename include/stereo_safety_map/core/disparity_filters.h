@@ -42,8 +42,8 @@ struct DisparityFilterWorkspace {
   std::vector<float> texture_row;      ///< texture (own path): one row, borders replicated
   std::vector<float> texture_rows;     ///< texture (own path): Gaussian along rows
   std::vector<float> texture_blurred;  ///< texture (own path): Gaussian-smoothed
-  std::vector<float> texture_log;      ///< texture (own path): |LoG| of four rows, borders replicated
-  std::vector<double> texture_sums;    ///< texture (own path): window sums along rows
+  std::vector<float> texture_log;    ///< texture (own path): |LoG| of four rows, borders replicated
+  std::vector<double> texture_sums;  ///< texture (own path): window sums along rows (a ring)
   std::vector<double> texture_column;  ///< texture (own path): running column sums
   cv::Mat padded;                      ///< neighbour consistency: input copy with an invalid border
   std::vector<float> valid_count;      ///< neighbour consistency: per-column counts of one row
