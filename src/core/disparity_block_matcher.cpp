@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <cstring>
 
@@ -312,7 +313,8 @@ bool cpuHasAvx512bwVl() {
                           __builtin_cpu_supports("avx512vl");
   return has;
 }
-bool avx512_allowed = true;  // LeftRightBlockMatcher::allowAvx512()
+// LeftRightBlockMatcher::allowAvx512(); atomic, since the stripes read it on their threads.
+std::atomic<bool> avx512_allowed{true};
 
 // One pixel's winner over its own costs c[0..nd) (StereoBM's rules), for the one left pixel whose
 // costs compute() corrects.
@@ -338,7 +340,7 @@ __attribute__((target("avx2"))) void matchRows(const Layout& l, const std::uint8
                                                const std::uint8_t* rf, int y_begin, int y_end,
                                                LeftRightBlockMatcher::Stripe* st, cv::Mat* raw_left,
                                                cv::Mat* raw_right) {
-  const bool use_avx512 = avx512_allowed && cpuHasAvx512bwVl();
+  const bool use_avx512 = LeftRightBlockMatcher::usesAvx512();
   const int nd = l.nd, nv = nd / 16, r2 = l.r2;
   std::int16_t* vs = st->column_sums.data();
   std::int16_t* tile = st->costs.data();      // 16 columns x nd costs
@@ -473,11 +475,11 @@ bool LeftRightBlockMatcher::supports(const BlockMatcherParams& p) {
 }
 
 void LeftRightBlockMatcher::allowAvx512(bool allowed) {
-  avx512_allowed = allowed;
+  avx512_allowed.store(allowed, std::memory_order_relaxed);
 }
 
 bool LeftRightBlockMatcher::usesAvx512() {
-  return avx512_allowed && cpuHasAvx512bwVl();
+  return avx512_allowed.load(std::memory_order_relaxed) && cpuHasAvx512bwVl();
 }
 
 void LeftRightBlockMatcher::compute(const cv::Mat& left, const cv::Mat& right,

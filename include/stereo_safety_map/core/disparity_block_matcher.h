@@ -46,7 +46,8 @@ class LeftRightBlockMatcher {
 
   /// The winner search runs with AVX-512BW / VL mask registers where the CPU has them (same
   /// output, faster), with AVX2 alone otherwise. false forces the AVX2 kernel in every matcher of
-  /// the process (tests compare the two); not thread-safe against a running compute().
+  /// the process (tests compare the two). Both give the same output, so a change while a
+  /// compute() runs is harmless.
   static void allowAvx512(bool allowed);
   /// True when compute() uses the AVX-512 kernel now.
   static bool usesAvx512();
