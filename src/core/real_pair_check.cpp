@@ -229,6 +229,8 @@ bool checkRealPair(const cv::Mat& left, const cv::Mat& right, const StereoCamera
 
   cv::Mat disparity;
   std::string err;
+  // As StereoFrameProcessor::processImages does: coarse_fill_max_depth needs f B.
+  processor.disparityPipeline().setFocalBaseline(camera.fx * camera.baseline);
   if (!processor.disparityPipeline().compute(left, right, &disparity, nullptr, &err)) {
     r.error = "disparity: " + err;
     return false;

@@ -89,12 +89,39 @@ std::string SafetyLabellingConfig::validate() const {
       obstacle_face_min_rise > 10.0) {
     return "obstacle_face_min_rise must be in [0, 10] m";
   }
+  if (!std::isfinite(obstacle_face_reach) || obstacle_face_reach < 0.0 ||
+      obstacle_face_reach > 10.0) {
+    return "obstacle_face_reach must be in [0, 10] m";
+  }
   return "";
 }
 
 SafetyLabelling::SafetyLabelling(const SafetyLabellingConfig& config) : config_(config) {
   const std::string err = config_.validate();
   if (!err.empty()) throw std::invalid_argument("SafetyLabellingConfig: " + err);
+}
+
+bool SafetyLabelling::faceReaches(const HeightMap& hm, int c, int cn, double voxel_size) const {
+  if (grid_ == nullptr || config_.obstacle_face_reach >= voxel_size) return true;
+  const int width = hm.width();
+  const int u = hm.minU() + c % width, v = hm.minV() + c / width;
+  const int du = hm.minU() + cn % width - u, dv = hm.minV() + cn / width - v;
+  // The border of cell (u, v) towards the face column, per axis the neighbour steps along
+  // (cells are centred on i * l_v, Eq. (1)).
+  const double bx = (u + 0.5 * du) * voxel_size, by = (v + 0.5 * dv) * voxel_size;
+  const double reach = config_.obstacle_face_reach;
+  const std::int32_t top = hm.atIndex(cn);
+  const int un = u + du, vn = v + dv;
+  for (std::int32_t w = top; w >= top - 1; --w) {
+    for (const VoxelPoint& p : grid_->points(VoxelIndex{un, vn, w})) {
+      // How deep the point stands in the face's column, from the shared border (or corner).
+      double depth = 0.0;
+      if (du != 0) depth = std::max(depth, du * (p.position.x() - bx));
+      if (dv != 0) depth = std::max(depth, dv * (p.position.y() - by));
+      if (depth <= reach) return true;
+    }
+  }
+  return false;
 }
 
 float SafetyLabelling::localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c) {
@@ -637,7 +664,8 @@ bool SafetyLabelling::label(const HeightMap& hm, const GroundSegments& segs,
           if (segs.segment_of[cn] == k || hm.atIndex(cn) == HeightMap::kNoHeight) continue;
           const int kn = segs.segment_of[cn];
           if (face && (kn < 0 || kn >= nseg || !isSafe(m.segments[kn].label)) &&
-              hm.surfaceHeightAtIndex(cn) > zc + rise) {  // NaN: false
+              hm.surfaceHeightAtIndex(cn) > zc + rise &&  // NaN: false
+              faceReaches(hm, c, cn, l)) {
             // The face of an obstacle, a wall or a table's edge may stand within this cell:
             // its column was seen beside it, not always in it.
             margin_.push_back(c);

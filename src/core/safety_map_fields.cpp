@@ -389,6 +389,13 @@ ParamFieldList<M> makeMapperFields() {
       .doc(
           "with obstacle_face_margin: the smallest rise of the neighbour's surface that makes "
           "a face (below h_T: h_T; at h_T the margin also rings stereo's 5-10 cm floor bumps).");
+  l.add("obstacle_face_reach", &M::labelling, &SafetyLabellingConfig::obstacle_face_reach)
+      .closed(0, 10)
+      .unit("m")
+      .doc(
+          "with obstacle_face_margin: the face column makes the margin only when one of its "
+          "surface points lies within this distance of the border it shares with the cell "
+          "(ours; >= l_v: every face column).");
   l.add("mark_drop_offs", &M::labelling, &SafetyLabellingConfig::mark_drop_offs)
       .live(kStage)
       .doc("annotate potential drop-off edges (000 Sec. VI).");

@@ -593,6 +593,7 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   timings_.plane_fit_ms = msSince(t);
 
   t = Clock::now();
+  labelling_.setVoxelGrid(&grid_);  // obstacle_face_reach; set per call: a copied mapper moves
   labelling_.label(height_map_, segments_, planes_, finite ? l : -1.0, &map_);
   if (!finite) {
     map_.robot_u = 0;

@@ -11,8 +11,13 @@
 // (left image with the labels | map | labels on the map's cells | errors; colours of 000
 // Fig. 4(a)).
 //
-//   evaluate_real_pairs [--data DIR] [--labels DIR] [--out DIR]
+//   evaluate_real_pairs [--data DIR] [--labels DIR] [--out DIR] [--params YAML ...]
+//                       [--set key=value ...]
 //   (defaults: ../shared/data/real, test/data/real_labels, out/real_pairs; run from the repository)
+//   --params / --set: the nodelets' parameter files and keys (config/disparity.yaml,
+//   config/safety_map.yaml), as the other evaluators take them, so that a user's configuration
+//   is scored on real pairs too; single-frame mode then overrides what it must (occ_t, decr,
+//   seed radius). Without them the core's defaults run (the same values as the files').
 //
 // Exits 0 when every pair ran and was scored against its labels and every pair with a reference
 // pose is within 5 cm and 1 deg of it; 1 otherwise (the scores are reported, not gated: seven
@@ -21,6 +26,7 @@
 #include "stereo_safety_map/core/image_labels.h"
 #include "stereo_safety_map/core/map_image.h"
 #include "stereo_safety_map/core/real_pair_check.h"
+#include "stereo_safety_map/ros/param_yaml.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -165,6 +171,7 @@ struct Outcome {
 int main(int argc, char** argv) {
   std::string data = "../shared/data/real", out = "out/real_pairs",
               labels_dir = "test/data/real_labels";
+  std::vector<std::string> param_files, assignments;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--data" && i + 1 < argc) {
@@ -173,8 +180,22 @@ int main(int argc, char** argv) {
       out = argv[++i];
     } else if (a == "--labels" && i + 1 < argc) {
       labels_dir = argv[++i];
+    } else if (a == "--params" && i + 1 < argc) {
+      param_files.push_back(argv[++i]);
+    } else if (a == "--set" && i + 1 < argc) {
+      assignments.push_back(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: evaluate_real_pairs [--data DIR] [--labels DIR] [--out DIR]\n");
+      std::fprintf(stderr,
+                   "usage: evaluate_real_pairs [--data DIR] [--labels DIR] [--out DIR] "
+                   "[--params YAML ...] [--set key=value ...]\n");
+      return 2;
+    }
+  }
+  ssm::RealPairCheckConfig config;
+  {
+    const std::string e = ssm::loadCoreParams(param_files, assignments, &config.processor);
+    if (!e.empty()) {
+      std::fprintf(stderr, "error: %s\n", e.c_str());
       return 2;
     }
   }
@@ -233,7 +254,6 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  const ssm::RealPairCheckConfig config;
   // Votes from the points the map was built from (the grid's reprojection range).
   const ssm::LabelScoringConfig scoring = ssm::LabelScoringConfig::forGrid(
       config.processor.mapper.grid.min_range, config.processor.mapper.grid.max_range);

@@ -946,6 +946,57 @@ TEST(SafetyLabellingObstacleFaceMargin, TheFloorCellsAroundAPoleAreNonGround) {
   }
 }
 
+// obstacle_face_reach: the same pole, its surface points at (0.63, 0.31) m in its column
+// (u 6: x 0.55-0.65 m; v 3: y 0.25-0.35 m). At a reach of 5 cm only the cells whose shared
+// border (or corner) lies within 5 cm of a point are ringed: (7, 3) (2 cm), (6, 4) (4 cm) and
+// the corner cell (7, 4) (2 and 4 cm); (5, 3) is 8 cm away, (6, 2) 6 cm, the other corners
+// farther. At a reach of l_v or more, or without a grid, all eight are.
+TEST(SafetyLabellingObstacleFaceMargin, AFaceRingsOnlyTheCellsItsPointsReach) {
+  const std::vector<std::string> rows = {"000000000000", "000000000000", "000000000000",
+                                         "000000500000", "000000000000", "000000000000",
+                                         "000000000000", "000000000000"};
+  World w(rows, 2, 1, 0, islandSegmentation());
+  for (int v = 0; v < w.hm.height(); ++v)
+    for (int u = 0; u < w.hm.width(); ++u)
+      w.hm.setSurfaceHeight(u, v, w.hm.at(u, v) == 5 ? 0.5f : 0.0f);
+  VoxelGridConfig gc;
+  gc.size_x = gc.size_y = 2.0;
+  gc.size_z = 2.0;
+  gc.z_below_robot = 0.5;
+  VoxelGrid grid(gc);
+  grid.recenter(Eigen::Vector3f(0.6f, 0.3f, 0.0f));
+  Eigen::Isometry3f T = Eigen::Isometry3f::Identity();
+  T.translation() = Eigen::Vector3f(0.6f, 0.3f, 1.5f);  // a camera above the pole
+  const Eigen::Vector3f p(0.63f, 0.31f, 0.50f);
+  ASSERT_EQ(grid.indexOf(p), (VoxelIndex{6, 3, 5}));
+  grid.integrate({p - T.translation()}, T);
+  ASSERT_EQ(grid.points(VoxelIndex{6, 3, 5}).size, 1u);
+
+  auto ringed = [&](double reach, bool with_grid) {
+    SafetyLabellingConfig c;
+    c.obstacle_face_reach = reach;
+    SafetyLabelling labelling(c);
+    if (with_grid) labelling.setVoxelGrid(&grid);
+    EXPECT_TRUE(labelling.label(w.hm, w.segs, w.planes, kLv, &w.map));
+    EXPECT_EQ(w.at(6, 3), L::kNonGround);
+    std::vector<std::pair<int, int>> cells;
+    for (int dv = -1; dv <= 1; ++dv)
+      for (int du = -1; du <= 1; ++du)
+        if ((du != 0 || dv != 0) && w.at(6 + du, 3 + dv) == L::kNonGround)
+          cells.emplace_back(du, dv);
+    EXPECT_EQ(w.at(4, 3), L::kLevel);
+    return cells;
+  };
+  const std::vector<std::pair<int, int>> near = {{1, 0}, {0, 1}, {1, 1}};
+  EXPECT_EQ(ringed(0.05, true), near);
+  EXPECT_EQ(ringed(0.05, false).size(), 8u);
+  EXPECT_EQ(ringed(kLv, true).size(), 8u);
+  EXPECT_EQ(ringed(0.01, true).size(), 0u);  // every border more than 1 cm from the point
+  SafetyLabellingConfig bad;
+  bad.obstacle_face_reach = -0.1;
+  EXPECT_NE(bad.validate().find("obstacle_face_reach"), std::string::npos);
+}
+
 // The robot's own segment a fragment: the seed rule picks the two cells at the base's indexed
 // height, and the floor around was seen a voxel higher (measured 3 cm above them).
 TEST(SafetyLabellingRobotFragmentPassage, ARobotSegmentThatIsAFragmentStillReachesTheFloor) {

@@ -204,6 +204,13 @@ struct SafetyLabellingConfig {
   /// it adds on the end-to-end test's scene, 71 % at h_T and 22 % at 0.1 m lie more than a cell
   /// from any obstacle or edge).
   double obstacle_face_min_rise = 0.1;
+  /// [m], [0, 10]: the face's column makes the margin only when one of its surface points (the
+  /// point lists of its top voxel and the voxel below) lies within this distance of the border
+  /// it shares with the cell (for a diagonal neighbour: of the shared corner, along both axes);
+  /// a face whose points all stand deeper in its own column does not reach into the cell (ours;
+  /// >= l_v: every face column, the margin as first built). Needs the voxel grid
+  /// (setVoxelGrid(), which SafetyMapper does); without one every face column counts.
+  double obstacle_face_reach = 1.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -235,6 +242,10 @@ class SafetyLabelling {
   };
   const std::vector<FaceMark>& faceMarks() const { return face_marks_; }
 
+  /// The grid whose point lists obstacle_face_reach reads (nullptr: none; not owned, must
+  /// outlive the label() calls and be the one the height map was built from).
+  void setVoxelGrid(const VoxelGrid* grid) { grid_ = grid; }
+
  private:
   struct Contact {  // a boundary cell of segment s next to segment r
     int s;
@@ -264,7 +275,12 @@ class SafetyLabelling {
   float localSurfaceHeight(const HeightMap& hm, const GroundSegments& segs, int c);
   static constexpr int kLocalSurfaceRadius = 2;
 
+  // obstacle_face_reach: whether a point of the face column cn's surface voxels lies within
+  // reach of the border (or corner) it shares with cell c.
+  bool faceReaches(const HeightMap& hm, int c, int cn, double voxel_size) const;
+
   SafetyLabellingConfig config_;
+  const VoxelGrid* grid_ = nullptr;     // setVoxelGrid()
   std::vector<std::uint8_t> boundary_;  // per cell
   std::vector<float> local_z_;          // per cell, see localSurfaceHeight()
   std::vector<int> margin_;             // cells of the drop-off and obstacle face margins
