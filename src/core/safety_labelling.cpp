@@ -93,6 +93,10 @@ std::string SafetyLabellingConfig::validate() const {
       obstacle_face_reach > 10.0) {
     return "obstacle_face_reach must be in [0, 10] m";
   }
+  if (!std::isfinite(obstacle_face_reach_sigmas) || obstacle_face_reach_sigmas < 0.0 ||
+      obstacle_face_reach_sigmas > 100.0) {
+    return "obstacle_face_reach_sigmas must be in [0, 100]";
+  }
   return "";
 }
 
@@ -110,6 +114,12 @@ bool SafetyLabelling::faceReaches(const HeightMap& hm, int c, int cn, double vox
   // (cells are centred on i * l_v, Eq. (1)).
   const double bx = (u + 0.5 * du) * voxel_size, by = (v + 0.5 * dv) * voxel_size;
   const double reach = config_.obstacle_face_reach;
+  // obstacle_face_reach_sigmas: k sigma_d / (f b), times r^2 per point (001 Sec. 4.1).
+  const double fb = grid_->focalBaseline();
+  const double per_r2 =
+      config_.obstacle_face_reach_sigmas > 0.0 && fb > 0.0
+          ? config_.obstacle_face_reach_sigmas * grid_->config().disparity_sigma / fb
+          : 0.0;
   const std::int32_t top = hm.atIndex(cn);
   const int un = u + du, vn = v + dv;
   for (std::int32_t w = top; w >= top - 1; --w) {
@@ -118,7 +128,8 @@ bool SafetyLabelling::faceReaches(const HeightMap& hm, int c, int cn, double vox
       double depth = 0.0;
       if (du != 0) depth = std::max(depth, du * (p.position.x() - bx));
       if (dv != 0) depth = std::max(depth, dv * (p.position.y() - by));
-      if (depth <= reach) return true;
+      const double r = p.range;
+      if (depth <= std::max(reach, per_r2 * r * r)) return true;
     }
   }
   return false;

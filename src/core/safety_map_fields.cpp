@@ -396,6 +396,13 @@ ParamFieldList<M> makeMapperFields() {
           "with obstacle_face_margin: the face column makes the margin only when one of its "
           "surface points lies within this distance of the border it shares with the cell "
           "(ours; >= l_v: every face column).");
+  l.add("obstacle_face_reach_sigmas", &M::labelling,
+        &SafetyLabellingConfig::obstacle_face_reach_sigmas)
+      .closed(0, 100)
+      .doc(
+          "with obstacle_face_reach below l_v: a point's reach is at least this many stereo "
+          "range errors at its range, k disparity_sigma r^2 / (f b) (001 Sec. 4.1; ours; 0 = the "
+          "fixed reach).");
   l.add("mark_drop_offs", &M::labelling, &SafetyLabellingConfig::mark_drop_offs)
       .live(kStage)
       .doc("annotate potential drop-off edges (000 Sec. VI).");

@@ -651,6 +651,7 @@ IntegrationStats VoxelGrid::integrate(const std::vector<Eigen::Vector3f>& points
 
 void VoxelGrid::setStereoGeometry(double focal_times_baseline) {
   const bool known = std::isfinite(focal_times_baseline) && focal_times_baseline > 0.0;
+  focal_baseline_ = known ? focal_times_baseline : 0.0;
   // k sigma_Z / Z^2 = k sigma_d / (f b) (001 Sec. 4.1).
   neighbour_reach_ = known && config_.neighbour_sigmas > 0.0
                          ? config_.neighbour_sigmas * config_.disparity_sigma / focal_times_baseline

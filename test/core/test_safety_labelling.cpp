@@ -992,9 +992,32 @@ TEST(SafetyLabellingObstacleFaceMargin, AFaceRingsOnlyTheCellsItsPointsReach) {
   EXPECT_EQ(ringed(0.05, false).size(), 8u);
   EXPECT_EQ(ringed(kLv, true).size(), 8u);
   EXPECT_EQ(ringed(0.01, true).size(), 0u);  // every border more than 1 cm from the point
+  // obstacle_face_reach_sigmas: 1 sigma_d / (f b) r^2 = 0.5 / 10 m at the point's range (1 m):
+  // a 5 cm reach again; without f b the fixed 1 cm alone.
+  auto ringedSigmas = [&](double fb) {
+    grid.setStereoGeometry(fb);
+    SafetyLabellingConfig c;
+    c.obstacle_face_reach = 0.01;
+    c.obstacle_face_reach_sigmas = 1.0;
+    SafetyLabelling labelling(c);
+    labelling.setVoxelGrid(&grid);
+    EXPECT_TRUE(labelling.label(w.hm, w.segs, w.planes, kLv, &w.map));
+    std::vector<std::pair<int, int>> cells;
+    for (int dv = -1; dv <= 1; ++dv)
+      for (int du = -1; du <= 1; ++du)
+        if ((du != 0 || dv != 0) && w.at(6 + du, 3 + dv) == L::kNonGround)
+          cells.emplace_back(du, dv);
+    return cells;
+  };
+  EXPECT_NEAR(grid.points(VoxelIndex{6, 3, 5}).data[0].range, 1.0, 0.01);
+  EXPECT_EQ(ringedSigmas(10.0), near);
+  EXPECT_EQ(ringedSigmas(0.0).size(), 0u);
   SafetyLabellingConfig bad;
   bad.obstacle_face_reach = -0.1;
   EXPECT_NE(bad.validate().find("obstacle_face_reach"), std::string::npos);
+  bad = SafetyLabellingConfig();
+  bad.obstacle_face_reach_sigmas = -1.0;
+  EXPECT_NE(bad.validate().find("obstacle_face_reach_sigmas"), std::string::npos);
 }
 
 // The robot's own segment a fragment: the seed rule picks the two cells at the base's indexed

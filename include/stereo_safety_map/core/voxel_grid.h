@@ -187,6 +187,8 @@ class VoxelGrid {
   /// f b [px m] of the stereo camera whose points integrate() receives, for
   /// VoxelGridConfig::neighbour_sigmas; 0 or non-finite = unknown (incr_L as in 000 Sec. IV).
   void setStereoGeometry(double focal_times_baseline);
+  /// The last setStereoGeometry()'s f b [px m]; 0 when unknown.
+  double focalBaseline() const { return focal_baseline_; }
 
   /// Log-odds of a voxel; 0 outside the window.
   int logOdds(const VoxelIndex& i) const;
@@ -284,6 +286,7 @@ class VoxelGrid {
   double inv_voxel_size_ = 0.0;
   // neighbour_sigmas x sigma_d / (f b) [1/m]: k sigma_Z = this x range^2; 0 = incr_L always.
   double neighbour_reach_ = 0.0;
+  double focal_baseline_ = 0.0;  // setStereoGeometry()
   VoxelIndex min_;
   std::uint32_t frame_ = 0;
   std::uint32_t stamp_now_ = 0;            // stamp of the current frame, 0 = never
