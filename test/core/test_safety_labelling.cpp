@@ -972,20 +972,25 @@ TEST(SafetyLabellingObstacleFaceMargin, AFaceRingsOnlyTheCellsItsPointsReach) {
   grid.integrate({p - T.translation()}, T);
   ASSERT_EQ(grid.points(VoxelIndex{6, 3, 5}).size, 1u);
 
-  auto ringed = [&](double reach, bool with_grid) {
-    SafetyLabellingConfig c;
-    c.obstacle_face_reach = reach;
+  // The pole's 8 neighbours that the margin made Non-ground, as (du, dv).
+  auto ringedWith = [&](const SafetyLabellingConfig& c, bool with_grid) {
     SafetyLabelling labelling(c);
     if (with_grid) labelling.setVoxelGrid(&grid);
     EXPECT_TRUE(labelling.label(w.hm, w.segs, w.planes, kLv, &w.map));
     EXPECT_EQ(w.at(6, 3), L::kNonGround);
+    EXPECT_EQ(w.at(4, 3), L::kLevel);
     std::vector<std::pair<int, int>> cells;
     for (int dv = -1; dv <= 1; ++dv)
       for (int du = -1; du <= 1; ++du)
         if ((du != 0 || dv != 0) && w.at(6 + du, 3 + dv) == L::kNonGround)
           cells.emplace_back(du, dv);
-    EXPECT_EQ(w.at(4, 3), L::kLevel);
     return cells;
+  };
+  auto ringed = [&](double reach, bool with_grid) {
+    SafetyLabellingConfig c;
+    c.obstacle_face_reach = reach;
+    c.obstacle_face_reach_sigmas = 0.0;
+    return ringedWith(c, with_grid);
   };
   const std::vector<std::pair<int, int>> near = {{1, 0}, {0, 1}, {1, 1}};
   EXPECT_EQ(ringed(0.05, true), near);
@@ -999,15 +1004,7 @@ TEST(SafetyLabellingObstacleFaceMargin, AFaceRingsOnlyTheCellsItsPointsReach) {
     SafetyLabellingConfig c;
     c.obstacle_face_reach = 0.01;
     c.obstacle_face_reach_sigmas = 1.0;
-    SafetyLabelling labelling(c);
-    labelling.setVoxelGrid(&grid);
-    EXPECT_TRUE(labelling.label(w.hm, w.segs, w.planes, kLv, &w.map));
-    std::vector<std::pair<int, int>> cells;
-    for (int dv = -1; dv <= 1; ++dv)
-      for (int du = -1; du <= 1; ++du)
-        if ((du != 0 || dv != 0) && w.at(6 + du, 3 + dv) == L::kNonGround)
-          cells.emplace_back(du, dv);
-    return cells;
+    return ringedWith(c, true);
   };
   EXPECT_NEAR(grid.points(VoxelIndex{6, 3, 5}).data[0].range, 1.0, 0.01);
   EXPECT_EQ(ringedSigmas(10.0), near);
