@@ -534,6 +534,30 @@ ParamFieldList<M> makeMapperFields() {
           "Non-ground while the top voxel of the roof column that marked it stays occupied, "
           "whatever the later lines of sight (ours; false = marked from the last frame's view "
           "only).");
+  l.add("unseen_overhang_min_height", &M::unseen_overhang_min_height)
+      .closed(0, 5)
+      .unit("m")
+      .doc(
+          "a Level / Inclined cell outside the footprint whose column, from this height above "
+          "its ground up to the robot's top, holds a voxel no observation touched below one that "
+          "an observation touched (the edge-on top of a table stereo did not match, rays passing "
+          "under and over it) is not safe (ours; 0 = off).");
+  l.add("unseen_overhang_non_ground", &M::unseen_overhang_non_ground)
+      .doc("unseen_overhang_min_height's cells are Non-ground instead of Unknown (ours).");
+  l.add("unseen_overhang_min_width", &M::unseen_overhang_min_width)
+      .closed(1, 9)
+      .doc(
+          "unseen_overhang_min_height: only hidden cells within a square of this side [cells] "
+          "hidden throughout count (an opening): a top hides a layer across its extent, the "
+          "voxels rays happen to miss lie in stripes a cell or two wide (ours; 1 = every "
+          "hidden cell).");
+  l.add("unseen_overhang_free_lop", &M::unseen_overhang_free_lop)
+      .closed(1, 32768)
+      .rangeText("[1, -lop_min]")
+      .doc(
+          "unseen_overhang_min_height: a voxel is seen free once passing rays took its log-odds "
+          "to -this or below; between that and occ_threshold it was not seen (a 4 cm top in a "
+          "10 cm voxel lets a few rays graze it) (ours).");
   l.setValidator(mapperParameterError);
   return l;
 }

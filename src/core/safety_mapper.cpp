@@ -77,6 +77,17 @@ std::string SafetyMapperConfig::validate() const {
       obstacle_memory_max_range > 1000.0) {
     return "obstacle_memory_max_range must be in [0, 1000] m (0 = any range)";
   }
+  if (!std::isfinite(unseen_overhang_min_height) || unseen_overhang_min_height < 0.0 ||
+      unseen_overhang_min_height > 5.0) {
+    return "unseen_overhang_min_height must be in [0, 5] m (0 = off)";
+  }
+  if (unseen_overhang_min_width < 1 || unseen_overhang_min_width > 9) {
+    return "unseen_overhang_min_width must be in [1, 9] cells";
+  }
+  if (unseen_overhang_free_lop < 1 || unseen_overhang_free_lop > -grid.lop_min) {
+    return "unseen_overhang_free_lop must be in [1, -grid.lop_min] = [1, " +
+           std::to_string(-grid.lop_min) + "]";
+  }
   if (obstacle_memory_clear_margin < 1 ||
       obstacle_memory_clear_margin > grid.occ_threshold - grid.lop_min) {
     return "obstacle_memory_clear_margin must be in [1, grid.occ_threshold - grid.lop_min] = [1, " +
@@ -129,6 +140,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.bridge_tilt_deg = 0.0;
   c.labelling.isolated_ground_unknown = false;  // 000 Alg. 2 step 27: unreached is Non-ground
   c.obstacle_memory = false;                    // 000 recomputes the map from the grid
+  c.unseen_overhang_min_height = 0.0;           // 000 labels the floor alone
   c.relevel.enabled = false;                    // 000 takes the pose from odometry
   c.overhang_roof.enabled = false;              // 000: the top voxel alone (Sec. V-A)
   c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
@@ -558,6 +570,62 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   });
 }
 
+void SafetyMapper::markUnseenOverhangs() {
+  // SafetyMapperConfig::unseen_overhang_min_height: a hidden layer above a safe cell.
+  SafetyMap& m = map_;
+  const double l = grid_.config().voxel_size;
+  const int rise = static_cast<int>(std::ceil(config_.unseen_overhang_min_height / l - 1e-6));
+  const int w_top = height_map_.topIndex();
+  const double fr = config_.segmentation.footprint_radius / m.resolution;
+  const double fr2 = fr * fr;
+  const std::size_t n = static_cast<std::size_t>(m.width) * static_cast<std::size_t>(m.height);
+  unseen_hidden_.assign(n, 0);
+  unseen_core_.assign(n, 0);
+  for (int v = m.min_v; v < m.min_v + m.height; ++v) {
+    for (int u = m.min_u; u < m.min_u + m.width; ++u) {
+      const int c = m.index(u, v);
+      if (!isSafe(m.labels[c])) continue;
+      const double du = u - m.robot_u, dv = v - m.robot_v;
+      if (du * du + dv * dv <= fr2) continue;  // the robot stands there
+      const std::int32_t w = height_map_.atIndex(c);
+      if (w == HeightMap::kNoHeight) continue;
+      unseen_hidden_[c] =
+          grid_.hiddenBelowObserved(u, v, w + rise, w_top, config_.unseen_overhang_free_lop);
+    }
+  }
+  // SafetyMapperConfig::unseen_overhang_min_width: an opening of the hidden cells with a square
+  // of that side. A top hides a layer across its whole extent; the voxels that the rays of a
+  // frame happen to miss (a wall seen at a grazing angle, one ray per voxel and frame) lie in
+  // thin stripes. unseen_core_ marks the corners (lowest x, y) of the squares hidden throughout.
+  const int side = config_.unseen_overhang_min_width;
+  for (int y = 0; y + side <= m.height; ++y) {
+    for (int x = 0; x + side <= m.width; ++x) {
+      bool all = true;
+      for (int yy = y; all && yy < y + side; ++yy)
+        for (int xx = x; all && xx < x + side; ++xx)
+          all = unseen_hidden_[static_cast<std::size_t>(yy) * m.width + xx] != 0;
+      unseen_core_[static_cast<std::size_t>(y) * m.width + x] = all;
+    }
+  }
+  auto inHiddenSquare = [&](int x, int y) {
+    for (int yy = std::max(0, y - side + 1); yy <= y; ++yy)
+      for (int xx = std::max(0, x - side + 1); xx <= x; ++xx)
+        if (unseen_core_[static_cast<std::size_t>(yy) * m.width + xx]) return true;
+    return false;
+  };
+  const SafetyLabel hidden =
+      config_.unseen_overhang_non_ground ? SafetyLabel::kNonGround : SafetyLabel::kUnknown;
+  for (int y = 0; y < m.height; ++y) {
+    for (int x = 0; x < m.width; ++x) {
+      const std::size_t c = static_cast<std::size_t>(y) * m.width + x;
+      if (!unseen_hidden_[c] || !inHiddenSquare(x, y)) continue;
+      m.labels[c] = hidden;
+      m.drop_off[c] = 0;
+      ++cells_unseen_overhang_;
+    }
+  }
+}
+
 const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_base_position) {
   const Clock::time_point t0 = Clock::now();
   timings_ = StageTimings();
@@ -611,6 +679,8 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
   if (config_.obstacle_memory && finite) {
     applyObstacleMemory(grid_.indexOf(robot_base_position).w, robot_base_position.z());
   }
+  cells_unseen_overhang_ = 0;
+  if (config_.unseen_overhang_min_height > 0.0 && finite) markUnseenOverhangs();
   // What the map can no longer vouch for, at the latest time seen (observation_age.h).
   cells_aged_ = 0;
   if (std::isfinite(latest_time_) && config_.max_cell_age > 0.0) {

@@ -751,6 +751,26 @@ bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int
   return true;
 }
 
+bool VoxelGrid::hiddenBelowObserved(int u, int v, int w_lo, int w_hi, int free_lop) const {
+  const std::int64_t ru = std::int64_t{u} - min_.u;
+  const std::int64_t rv = std::int64_t{v} - min_.v;
+  if (ru < 0 || ru >= nu_ || rv < 0 || rv >= nv_) return false;
+  const std::int64_t lo = std::max<std::int64_t>(std::int64_t{w_lo} - min_.w, 0);
+  const std::int64_t hi = std::min<std::int64_t>(std::int64_t{w_hi} - min_.w, nw_ - 1);
+  const std::int16_t* const column = lop_.data() + slot_u_[ru] + slot_v_[rv];
+  const int occ = config_.occ_threshold;
+  const int free_max = -std::max(free_lop, 1);
+  bool seen_above = false;
+  for (std::int64_t w = hi; w >= lo; --w) {
+    const int lop = column[slot_w_[w]];
+    if (lop >= occ || lop <= free_max)
+      seen_above = true;
+    else if (seen_above)
+      return true;
+  }
+  return false;
+}
+
 void VoxelGrid::setLogOdds(const VoxelIndex& i, int lop) {
   if (!contains(i)) return;
   lop_[linear(i)] =

@@ -256,6 +256,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     cells_aged_ = processor_->mapper().cellsAged();
     cells_under_overhangs_ = processor_->mapper().cellsUnderOverhangs();
+    cells_unseen_overhang_ = processor_->mapper().cellsUnderUnseenOverhangs();
   }
   // The landmark filter confirmed no point yet: nothing for the grid, nothing refused.
   if (result.landmark_filter_ran && result.points == 0) return;
@@ -428,6 +429,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
     ++map_resets_;
     cells_aged_ = 0;
     cells_under_overhangs_ = 0;
+    cells_unseen_overhang_ = 0;
   }
   ROS_INFO_STREAM(name_ << ": map reset on request");
   return true;
@@ -521,6 +523,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
     ++map_resets_;
     cells_aged_ = 0;
     cells_under_overhangs_ = 0;
+    cells_unseen_overhang_ = 0;
   } else {
     if (processor_->mapper().safetyMap().width > 0) {
       processor_->recompute(robot_position_, last_stamp_.toSec());
@@ -545,6 +548,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   stat.add("cells aged to Unknown (current map)", cells_aged_);
   stat.add("floor under an overhang's front edge made Non-ground, last map (overhang_roof)",
            cells_under_overhangs_);
+  stat.add("floor under a layer stereo did not see, made unsafe, last map (unseen_overhang)",
+           cells_unseen_overhang_);
   stat.add("published safety_map", map_stale_ ? "stale: all Unknown (no frame integrated for "
                                                 "stale_input_timeout)"
                                               : "live");

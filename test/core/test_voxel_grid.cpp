@@ -665,6 +665,7 @@ TEST(VoxelGridPoints, FullCapacityKeepsTheClosestSorted) {
   c.z_below_robot = 0.5;
   c.point_list_capacity = 255;
   VoxelGrid g(c);
+  constexpr int kFreeLop = 10;
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> range(0.5f, 1.9f);
   std::vector<float> seen;
@@ -938,6 +939,78 @@ TEST(VoxelGridScroll, OccupiedExtentAgreesWithIsOccupiedAfterScrolls) {
     }
   }
   EXPECT_GT(columns_with_voxels, 100);  // the comparison saw occupied columns
+}
+
+// hiddenBelowObserved() reads the column in ring order too: against logOdds() voxel by voxel.
+TEST(VoxelGridScroll, HiddenBelowObservedAgreesWithLogOddsAfterScrolls) {
+  VoxelGridConfig c;
+  c.size_x = 1.2;
+  c.size_y = 0.8;
+  c.size_z = 1.0;
+  c.z_below_robot = 0.4;
+  VoxelGrid g(c);
+  constexpr int kFreeLop = 10;
+  std::mt19937 rng(11);
+  int hidden = 0, not_hidden = 0;
+  for (int iter = 0; iter < 40; ++iter) {
+    std::uniform_real_distribution<float> d(-0.7f, 0.7f);
+    g.recenter(Vec(d(rng), d(rng), d(rng)));
+    const VoxelIndex m = g.minIndex();
+    for (int j = 0; j < 120; ++j) {
+      const int u = m.u + static_cast<int>(rng() % g.sizeU());
+      const int v = m.v + static_cast<int>(rng() % g.sizeV());
+      const int w = m.w + static_cast<int>(rng() % g.sizeW());
+      g.setLogOdds(idx(u, v, w), static_cast<int>(rng() % 250) - 100);  // occ_t = 100
+    }
+    for (int u = m.u - 1; u <= m.u + g.sizeU(); ++u) {
+      for (int v = m.v - 1; v <= m.v + g.sizeV(); ++v) {
+        const int lo = m.w - 2 + static_cast<int>(rng() % (g.sizeW() + 2));
+        const int hi = lo + static_cast<int>(rng() % (g.sizeW() + 4)) - 1;
+        bool expected = false, seen_above = false;
+        const bool inside = u >= m.u && u < m.u + g.sizeU() && v >= m.v && v < m.v + g.sizeV();
+        for (int w = hi; inside && w >= lo; --w) {
+          if (w < m.w || w >= m.w + g.sizeW()) continue;  // outside the window: not a voxel
+          const int lop = g.logOdds(idx(u, v, w));
+          if (lop >= c.occ_threshold || lop <= -kFreeLop) {
+            seen_above = true;
+          } else if (seen_above) {
+            expected = true;
+            break;
+          }
+        }
+        const bool got = g.hiddenBelowObserved(u, v, lo, hi, kFreeLop);
+        ASSERT_EQ(got, expected) << "iter " << iter << " column " << u << "," << v;
+        (got ? hidden : not_hidden) += 1;
+      }
+    }
+  }
+  EXPECT_GT(hidden, 50);  // both answers were asked for
+  EXPECT_GT(not_hidden, 50);
+}
+
+TEST(VoxelGrid, HiddenBelowObservedNeedsAVoxelSeenAbove) {
+  VoxelGrid g;
+  g.recenter(Vec(0.0f, 0.0f, 0.0f));
+  const VoxelIndex f = g.indexOf(Vec(1.0f, 0.0f, 0.0f));
+  g.setLogOdds(f, 200);  // the floor
+  for (int w = 1; w <= 3; ++w)
+    g.setLogOdds(idx(f.u, f.v, f.w + w), -50);  // seen free
+  // Open space above what was seen: nothing hidden.
+  EXPECT_FALSE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 12, 10));
+  g.setLogOdds(idx(f.u, f.v, f.w + 9), -9);  // a few rays passed there: not seen free
+  EXPECT_FALSE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 12, 10));
+  EXPECT_TRUE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 12, 9));
+  g.setLogOdds(idx(f.u, f.v, f.w + 9), -10);  // rays passed over a layer at w + 4 .. 8
+  EXPECT_TRUE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 12, 10));
+  EXPECT_TRUE(g.hiddenBelowObserved(f.u, f.v, f.w + 8, f.w + 9, 10));
+  EXPECT_FALSE(g.hiddenBelowObserved(f.u, f.v, f.w + 9, f.w + 12, 10));  // below the range
+  EXPECT_FALSE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 3, 10));
+  g.setLogOdds(idx(f.u, f.v, f.w + 6), -3);  // grazed: still hidden
+  EXPECT_TRUE(g.hiddenBelowObserved(f.u, f.v, f.w + 5, f.w + 9, 10));
+  g.setLogOdds(idx(f.u, f.v, f.w + 9), 0);
+  g.setLogOdds(idx(f.u, f.v, f.w + 11), 150);  // occupied above counts as seen
+  EXPECT_TRUE(g.hiddenBelowObserved(f.u, f.v, f.w + 1, f.w + 12, 10));
+  EXPECT_FALSE(g.hiddenBelowObserved(f.u + 100000, f.v, f.w + 1, f.w + 12, 10));  // outside
 }
 
 TEST(VoxelGridScroll, IntegrationAfterScrollUsesGlobalIndices) {

@@ -109,6 +109,30 @@ struct SafetyMapperConfig {
   /// is Non-ground: the table top or shelf board that stereo saw only at its front edge.
   OverhangRoofConfig overhang_roof;
 
+  /// An overhang that stereo did not measure (ours; 0 = off, 000 labels the floor alone). A
+  /// table top or shelf board seen edge-on whose front edge block matching does not match gives
+  /// no point, while the rays to the floor beyond pass under it and the rays to the wall behind
+  /// pass over it (docs/evaluation.md, "A table top that stereo does not see"): its voxels stay
+  /// at the prior between observed ones (VoxelGrid::hiddenBelowObserved). With this > 0 [m], a
+  /// Level or Inclined cell outside the robot's footprint whose column, from this height above
+  /// its ground voxel up to the robot's top, holds such a hidden voxel is no longer safe:
+  /// Unknown, or Non-ground with unseen_overhang_non_ground. Open space above the camera's view
+  /// is not hidden (nothing was observed above it). Default 0.3 m: docs/evaluation.md, "A table
+  /// top that stereo does not see".
+  double unseen_overhang_min_height = 0.3;
+  /// unseen_overhang_min_height's cells are Non-ground instead of Unknown (ours).
+  bool unseen_overhang_non_ground = false;
+  /// unseen_overhang_min_height: a voxel is seen free once passing rays took its log-odds to
+  /// -this or below (ours; VoxelGrid::hiddenBelowObserved). A 4 cm top in a 10 cm voxel lets a
+  /// few rays graze the voxel under and over it. [1, -lop_min].
+  int unseen_overhang_free_lop = 10;
+  /// unseen_overhang_min_height: only hidden cells that belong to a square of this side [cells]
+  /// hidden throughout count (a morphological opening; ours; 1 = every hidden cell). A top
+  /// hides a layer across its extent; the voxels the rays happen to miss (a wall seen at a
+  /// grazing angle: one ray per voxel and frame, 000 Sec. IV) lie in scattered cells and thin
+  /// stripes. [1, 9].
+  int unseen_overhang_min_width = 2;
+
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
 };
@@ -212,6 +236,8 @@ class SafetyMapper {
   std::size_t cellsRemembered() const { return cells_remembered_; }
   /// Safe cells of the last map made Non-ground as floor seen under an overhang (overhang_roof).
   int cellsUnderOverhangs() const { return cells_under_overhangs_; }
+  /// Safe cells of the last map under a hidden layer (unseen_overhang_min_height).
+  int cellsUnderUnseenOverhangs() const { return cells_unseen_overhang_; }
   /// Cells the obstacle memory holds (those it keeps Non-ground and those the labelling calls
   /// Non-ground itself).
   std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
@@ -299,6 +325,9 @@ class SafetyMapper {
   OverhangRoofScratch overhang_scratch_;
   Eigen::Vector3f last_camera_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   int cells_under_overhangs_ = 0;
+  int cells_unseen_overhang_ = 0;
+  std::vector<std::uint8_t> unseen_hidden_, unseen_core_;  // markUnseenOverhangs() scratch
+  void markUnseenOverhangs();
   // FrameLevellingConfig::filter_frames: the last accepted per-frame estimates (roll and pitch
   // about the camera heading's axes [rad], dz [m]), oldest first, and a scratch for medians.
   std::vector<Eigen::Vector3d> levelling_history_;

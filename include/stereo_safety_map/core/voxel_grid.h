@@ -239,6 +239,14 @@ class VoxelGrid {
   /// as isOccupied() on every voxel of the column, in one pass over the column's contiguous
   /// storage: the height map's inner loop (000 Sec. V-A).
   bool occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const;
+  /// Whether the column (u, v), among the indexed heights [w_lo, w_hi] (global, clipped to the
+  /// window), holds a voxel that was not seen, below one that was. Seen is occupied (LOP >=
+  /// occ_t) or seen free: passing rays' decrements (000 Sec. IV) took its LOP to -free_lop or
+  /// below. A voxel between (at the prior 0, a few grazing rays, a few hits) was not seen: a
+  /// layer hidden between seen space, such as the edge-on top of a table whose front edge
+  /// stereo did not match while rays passed under and over it (SafetyMapperConfig::
+  /// unseen_overhang_min_height). False outside the window. free_lop >= 1.
+  bool hiddenBelowObserved(int u, int v, int w_lo, int w_hi, int free_lop) const;
 
   /// Sets a voxel's log-odds directly (clamped). For tests and for fusing external cues.
   void setLogOdds(const VoxelIndex& i, int lop);
