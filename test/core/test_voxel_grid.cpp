@@ -893,31 +893,46 @@ TEST(VoxelGridScroll, RandomScrollsAgreeWithAReferenceMap) {
   }
 }
 
-// occupiedExtent() reads a column in ring order: after scrolls the ring is rotated, so compare
-// it with isOccupied() on every voxel, for ranges inside, across and outside the window.
-TEST(VoxelGridScroll, OccupiedExtentAgreesWithIsOccupiedAfterScrolls) {
+// Column queries after scrolls (the ring rotated): a small grid recentred 40 times at random,
+// `writes` random log-odds in [lop_lo, lop_lo + 250) per recentring, then query(g, m, u, v, lo,
+// hi, iter) for every column of the window and one beyond each side, with [lo, hi] inside,
+// across and outside the window.
+template <typename Query>
+void queryColumnsAfterScrolls(unsigned seed, int writes, int lop_lo, Query&& query) {
   VoxelGridConfig c;
   c.size_x = 1.2;
   c.size_y = 0.8;
   c.size_z = 1.0;
   c.z_below_robot = 0.4;
   VoxelGrid g(c);
-  std::mt19937 rng(7);
-  int columns_with_voxels = 0;
+  std::mt19937 rng(seed);
   for (int iter = 0; iter < 40; ++iter) {
     std::uniform_real_distribution<float> d(-0.7f, 0.7f);
     g.recenter(Vec(d(rng), d(rng), d(rng)));
     const VoxelIndex m = g.minIndex();
-    for (int j = 0; j < 60; ++j) {
+    for (int j = 0; j < writes; ++j) {
       const int u = m.u + static_cast<int>(rng() % g.sizeU());
       const int v = m.v + static_cast<int>(rng() % g.sizeV());
       const int w = m.w + static_cast<int>(rng() % g.sizeW());
-      g.setLogOdds(idx(u, v, w), static_cast<int>(rng() % 250) - 50);  // occ_t = 100
+      g.setLogOdds(idx(u, v, w), static_cast<int>(rng() % 250) + lop_lo);  // occ_t = 100
     }
     for (int u = m.u - 1; u <= m.u + g.sizeU(); ++u) {
       for (int v = m.v - 1; v <= m.v + g.sizeV(); ++v) {
         const int lo = m.w - 2 + static_cast<int>(rng() % (g.sizeW() + 2));
         const int hi = lo + static_cast<int>(rng() % (g.sizeW() + 4)) - 1;
+        query(g, m, u, v, lo, hi, iter);
+      }
+    }
+  }
+}
+
+// occupiedExtent() reads a column in ring order: after scrolls the ring is rotated, so compare
+// it with isOccupied() on every voxel, for ranges inside, across and outside the window.
+TEST(VoxelGridScroll, OccupiedExtentAgreesWithIsOccupiedAfterScrolls) {
+  int columns_with_voxels = 0;
+  queryColumnsAfterScrolls(
+      7, 60, -50,
+      [&](const VoxelGrid& g, const VoxelIndex&, int u, int v, int lo, int hi, int iter) {
         int top = -12345, bottom = -12345;
         for (int w = hi; w >= lo; --w) {
           if (!g.isOccupied(idx(u, v, w))) continue;
@@ -935,43 +950,23 @@ TEST(VoxelGridScroll, OccupiedExtentAgreesWithIsOccupiedAfterScrolls) {
           EXPECT_EQ(got_top, -777);  // untouched
           EXPECT_EQ(got_bottom, -777);
         }
-      }
-    }
-  }
+      });
   EXPECT_GT(columns_with_voxels, 100);  // the comparison saw occupied columns
 }
 
 // hiddenBelowObserved() reads the column in ring order too: against logOdds() voxel by voxel.
 TEST(VoxelGridScroll, HiddenBelowObservedAgreesWithLogOddsAfterScrolls) {
-  VoxelGridConfig c;
-  c.size_x = 1.2;
-  c.size_y = 0.8;
-  c.size_z = 1.0;
-  c.z_below_robot = 0.4;
-  VoxelGrid g(c);
   constexpr int kFreeLop = 10;
-  std::mt19937 rng(11);
   int hidden = 0, not_hidden = 0;
-  for (int iter = 0; iter < 40; ++iter) {
-    std::uniform_real_distribution<float> d(-0.7f, 0.7f);
-    g.recenter(Vec(d(rng), d(rng), d(rng)));
-    const VoxelIndex m = g.minIndex();
-    for (int j = 0; j < 120; ++j) {
-      const int u = m.u + static_cast<int>(rng() % g.sizeU());
-      const int v = m.v + static_cast<int>(rng() % g.sizeV());
-      const int w = m.w + static_cast<int>(rng() % g.sizeW());
-      g.setLogOdds(idx(u, v, w), static_cast<int>(rng() % 250) - 100);  // occ_t = 100
-    }
-    for (int u = m.u - 1; u <= m.u + g.sizeU(); ++u) {
-      for (int v = m.v - 1; v <= m.v + g.sizeV(); ++v) {
-        const int lo = m.w - 2 + static_cast<int>(rng() % (g.sizeW() + 2));
-        const int hi = lo + static_cast<int>(rng() % (g.sizeW() + 4)) - 1;
+  queryColumnsAfterScrolls(
+      11, 120, -100,
+      [&](const VoxelGrid& g, const VoxelIndex& m, int u, int v, int lo, int hi, int iter) {
         bool expected = false, seen_above = false;
         const bool inside = u >= m.u && u < m.u + g.sizeU() && v >= m.v && v < m.v + g.sizeV();
         for (int w = hi; inside && w >= lo; --w) {
           if (w < m.w || w >= m.w + g.sizeW()) continue;  // outside the window: not a voxel
           const int lop = g.logOdds(idx(u, v, w));
-          if (lop >= c.occ_threshold || lop <= -kFreeLop) {
+          if (lop >= g.config().occ_threshold || lop <= -kFreeLop) {
             seen_above = true;
           } else if (seen_above) {
             expected = true;
@@ -981,9 +976,7 @@ TEST(VoxelGridScroll, HiddenBelowObservedAgreesWithLogOddsAfterScrolls) {
         const bool got = g.hiddenBelowObserved(u, v, lo, hi, kFreeLop);
         ASSERT_EQ(got, expected) << "iter " << iter << " column " << u << "," << v;
         (got ? hidden : not_hidden) += 1;
-      }
-    }
-  }
+      });
   EXPECT_GT(hidden, 50);  // both answers were asked for
   EXPECT_GT(not_hidden, 50);
 }
