@@ -539,18 +539,19 @@ ParamFieldList<M> makeMapperFields() {
       .unit("m")
       .doc(
           "a Level / Inclined cell outside the footprint whose column, from this height above "
-          "its ground up to the robot's top, holds a voxel no observation touched below one that "
-          "an observation touched (the edge-on top of a table stereo did not match, rays passing "
-          "under and over it) is not safe (ours; 0 = off).");
+          "its ground up to the robot's top, holds a voxel not seen (log-odds between "
+          "-unseen_overhang_free_lop and occ_threshold) below one seen (the edge-on top of a "
+          "table stereo did not match, rays passing under and over it) is Unknown (ours; 0 = "
+          "off).");
   l.add("unseen_overhang_non_ground", &M::unseen_overhang_non_ground)
       .doc("unseen_overhang_min_height's cells are Non-ground instead of Unknown (ours).");
   l.add("unseen_overhang_min_width", &M::unseen_overhang_min_width)
       .closed(1, 9)
       .doc(
-          "unseen_overhang_min_height: only hidden cells within a square of this side [cells] "
-          "hidden throughout count (an opening): a top hides a layer across its extent, the "
-          "voxels rays happen to miss lie in stripes a cell or two wide (ours; 1 = every "
-          "hidden cell).");
+          "unseen_overhang_min_height: only hidden cells that belong to a square of this side "
+          "[cells] hidden throughout count (an opening): a top hides a layer across its extent, "
+          "the voxels rays happen to miss lie in scattered cells and thin stripes (ours; 1 = "
+          "every hidden cell).");
   l.add("unseen_overhang_free_lop", &M::unseen_overhang_free_lop)
       .closed(1, 32768)
       .rangeText("[1, -lop_min]")

@@ -113,7 +113,8 @@ struct SafetyMapperConfig {
   /// table top or shelf board seen edge-on whose front edge block matching does not match gives
   /// no point, while the rays to the floor beyond pass under it and the rays to the wall behind
   /// pass over it (docs/evaluation.md, "A table top that stereo does not see"): its voxels stay
-  /// at the prior between observed ones (VoxelGrid::hiddenBelowObserved). With this > 0 [m], a
+  /// at or near the prior, not seen, between voxels seen (VoxelGrid::hiddenBelowObserved, with
+  /// unseen_overhang_free_lop). With this > 0 [m], a
   /// Level or Inclined cell outside the robot's footprint whose column, from this height above
   /// its ground voxel up to the robot's top, holds such a hidden voxel is no longer safe:
   /// Unknown, or Non-ground with unseen_overhang_non_ground. Open space above the camera's view
