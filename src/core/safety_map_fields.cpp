@@ -552,6 +552,20 @@ ParamFieldList<M> makeMapperFields() {
           "[cells] hidden throughout count (an opening): a top hides a layer across its extent, "
           "the voxels rays happen to miss lie in scattered cells and thin stripes (ours; 1 = "
           "every hidden cell).");
+  l.add("unseen_floor_band", &M::unseen_floor_band)
+      .closed(0, 10)
+      .unit("voxels")
+      .doc(
+          "a Level / Inclined cell outside the footprint none of whose voxels 1 .. this many "
+          "above its ground was ever seen free (log-odds at or below -unseen_overhang_free_lop) "
+          "is Unknown: floor that stereo's noise pushed behind an obstacle's face, above which "
+          "no ray passed (ours; 0 = off; off while decr = 0).");
+  l.add("unseen_floor_min_range", &M::unseen_floor_min_range)
+      .closed(0, 100)
+      .unit("m")
+      .doc(
+          "unseen_floor_band applies from this horizontal distance of the robot on: near the "
+          "chair stereo's depth error is a small fraction of a cell (ours).");
   l.add("unseen_overhang_free_lop", &M::unseen_overhang_free_lop)
       .closed(1, 32768)
       .rangeText("[1, -lop_min]")

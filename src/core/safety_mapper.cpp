@@ -81,6 +81,13 @@ std::string SafetyMapperConfig::validate() const {
       unseen_overhang_min_height > 5.0) {
     return "unseen_overhang_min_height must be in [0, 5] m (0 = off)";
   }
+  if (unseen_floor_band < 0 || unseen_floor_band > 10) {
+    return "unseen_floor_band must be in [0, 10] voxels (0 = off)";
+  }
+  if (!std::isfinite(unseen_floor_min_range) || unseen_floor_min_range < 0.0 ||
+      unseen_floor_min_range > 100.0) {
+    return "unseen_floor_min_range must be in [0, 100] m";
+  }
   if (unseen_overhang_min_width < 1 || unseen_overhang_min_width > 9) {
     return "unseen_overhang_min_width must be in [1, 9] cells";
   }
@@ -141,6 +148,7 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
   c.labelling.isolated_ground_unknown = false;  // 000 Alg. 2 step 27: unreached is Non-ground
   c.obstacle_memory = false;                    // 000 recomputes the map from the grid
   c.unseen_overhang_min_height = 0.0;           // 000 labels the floor alone
+  c.unseen_floor_band = 0;                      // the same
   c.relevel.enabled = false;                    // 000 takes the pose from odometry
   c.overhang_roof.enabled = false;              // 000: the top voxel alone (Sec. V-A)
   c.labelling.max_gap_cells = 0;                // 000 Sec. VI: neighbours touch
@@ -465,12 +473,25 @@ bool SafetyMapper::integrate(const std::vector<Eigen::Vector3f>& points_sensor,
   return true;
 }
 
+namespace {
+// The memories' key of a cell (global (u, v)).
+std::int64_t memoryKey(int u, int v) {
+  return static_cast<std::int64_t>(
+      (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+      static_cast<std::uint32_t>(v));
+}
+}  // namespace
+
+bool SafetyMapper::rememberedObstacle(int u, int v, int* lo, int* hi) const {
+  const auto it = obstacle_memory_.find(memoryKey(u, v));
+  if (it == obstacle_memory_.end()) return false;
+  if (lo) *lo = it->second.lo;
+  if (hi) *hi = it->second.hi;
+  return true;
+}
+
 void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
-  auto key = [](int u, int v) {
-    return static_cast<std::int64_t>(
-        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
-        static_cast<std::uint32_t>(v));
-  };
+  auto key = memoryKey;
   SafetyMap& m = map_;
   const double max_range2 = config_.obstacle_memory_max_range * config_.obstacle_memory_max_range;
   const int clear_lop = grid_.config().occ_threshold - config_.obstacle_memory_clear_margin;
@@ -574,7 +595,14 @@ void SafetyMapper::markUnseenOverhangs() {
   // SafetyMapperConfig::unseen_overhang_min_height: a hidden layer above a safe cell.
   SafetyMap& m = map_;
   const double l = grid_.config().voxel_size;
-  const int rise = static_cast<int>(std::ceil(config_.unseen_overhang_min_height / l - 1e-6));
+  const int rise = config_.unseen_overhang_min_height > 0.0
+                       ? static_cast<int>(std::ceil(config_.unseen_overhang_min_height / l - 1e-6))
+                       : 0;
+  // Without free-space decrements (decr 0, the real pairs' single-frame mode) no voxel is ever
+  // seen free: the rule has nothing to ask.
+  const int floor_band = grid_.config().decr > 0 ? config_.unseen_floor_band : 0;
+  const double res2 = m.resolution * m.resolution;
+  const double floor_r2 = config_.unseen_floor_min_range * config_.unseen_floor_min_range;
   const int w_top = height_map_.topIndex();
   const double fr = config_.segmentation.footprint_radius / m.resolution;
   const double fr2 = fr * fr;
@@ -589,8 +617,15 @@ void SafetyMapper::markUnseenOverhangs() {
       if (du * du + dv * dv <= fr2) continue;  // the robot stands there
       const std::int32_t w = height_map_.atIndex(c);
       if (w == HeightMap::kNoHeight) continue;
-      unseen_hidden_[c] =
-          grid_.hiddenBelowObserved(u, v, w + rise, w_top, config_.unseen_overhang_free_lop);
+      unseen_hidden_[c] = rise > 0 && grid_.hiddenBelowObserved(u, v, w + rise, w_top,
+                                                                config_.unseen_overhang_free_lop);
+      if (floor_band > 0 && (du * du + dv * dv) * res2 >= floor_r2 &&
+          !grid_.seenFreeWithin(u, v, w + 1, w + floor_band, config_.unseen_overhang_free_lop)) {
+        m.labels[c] = SafetyLabel::kUnknown;
+        m.drop_off[c] = 0;
+        unseen_hidden_[c] = 0;
+        ++cells_unseen_floor_;
+      }
     }
   }
   // SafetyMapperConfig::unseen_overhang_min_width: an opening of the hidden cells with a square
@@ -680,7 +715,9 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
     applyObstacleMemory(grid_.indexOf(robot_base_position).w, robot_base_position.z());
   }
   cells_unseen_overhang_ = 0;
-  if (config_.unseen_overhang_min_height > 0.0 && finite) markUnseenOverhangs();
+  cells_unseen_floor_ = 0;
+  if ((config_.unseen_overhang_min_height > 0.0 || config_.unseen_floor_band > 0) && finite)
+    markUnseenOverhangs();
   // What the map can no longer vouch for, at the latest time seen (observation_age.h).
   cells_aged_ = 0;
   if (std::isfinite(latest_time_) && config_.max_cell_age > 0.0) {

@@ -721,15 +721,22 @@ VoxelMoments VoxelGrid::moments(const VoxelIndex& i) const {
   return contains(i) ? moments_[linear(i)] : VoxelMoments();
 }
 
-bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const {
+bool VoxelGrid::columnSpan(int u, int v, int w_lo, int w_hi, const std::int16_t** column,
+                           std::int64_t* lo, std::int64_t* hi) const {
   const std::int64_t ru = std::int64_t{u} - min_.u;
   const std::int64_t rv = std::int64_t{v} - min_.v;
   if (ru < 0 || ru >= nu_ || rv < 0 || rv >= nv_) return false;
-  const std::int64_t lo = std::max<std::int64_t>(std::int64_t{w_lo} - min_.w, 0);
-  const std::int64_t hi = std::min<std::int64_t>(std::int64_t{w_hi} - min_.w, nw_ - 1);
-  if (lo > hi) return false;
+  *lo = std::max<std::int64_t>(std::int64_t{w_lo} - min_.w, 0);
+  *hi = std::min<std::int64_t>(std::int64_t{w_hi} - min_.w, nw_ - 1);
   // w is the innermost axis of the ring buffer: the column is contiguous, in ring order.
-  const std::int16_t* const column = lop_.data() + slot_u_[ru] + slot_v_[rv];
+  *column = lop_.data() + slot_u_[ru] + slot_v_[rv];
+  return *lo <= *hi;
+}
+
+bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int* w_bottom) const {
+  const std::int16_t* column = nullptr;
+  std::int64_t lo = 0, hi = -1;
+  if (!columnSpan(u, v, w_lo, w_hi, &column, &lo, &hi)) return false;
   const std::uint32_t* const slot_w = slot_w_.data();
   const int occ = config_.occ_threshold;
   // Most columns of the window hold no occupied voxel at all: one pass over the whole column's
@@ -752,12 +759,9 @@ bool VoxelGrid::occupiedExtent(int u, int v, int w_lo, int w_hi, int* w_top, int
 }
 
 bool VoxelGrid::hiddenBelowObserved(int u, int v, int w_lo, int w_hi, int free_lop) const {
-  const std::int64_t ru = std::int64_t{u} - min_.u;
-  const std::int64_t rv = std::int64_t{v} - min_.v;
-  if (ru < 0 || ru >= nu_ || rv < 0 || rv >= nv_) return false;
-  const std::int64_t lo = std::max<std::int64_t>(std::int64_t{w_lo} - min_.w, 0);
-  const std::int64_t hi = std::min<std::int64_t>(std::int64_t{w_hi} - min_.w, nw_ - 1);
-  const std::int16_t* const column = lop_.data() + slot_u_[ru] + slot_v_[rv];
+  const std::int16_t* column = nullptr;
+  std::int64_t lo = 0, hi = -1;
+  if (!columnSpan(u, v, w_lo, w_hi, &column, &lo, &hi)) return false;
   const int occ = config_.occ_threshold;
   const int free_max = -std::max(free_lop, 1);
   bool seen_above = false;
@@ -768,6 +772,16 @@ bool VoxelGrid::hiddenBelowObserved(int u, int v, int w_lo, int w_hi, int free_l
     else if (seen_above)
       return true;
   }
+  return false;
+}
+
+bool VoxelGrid::seenFreeWithin(int u, int v, int w_lo, int w_hi, int free_lop) const {
+  const std::int16_t* column = nullptr;
+  std::int64_t lo = 0, hi = -1;
+  if (!columnSpan(u, v, w_lo, w_hi, &column, &lo, &hi)) return false;
+  const int free_max = -std::max(free_lop, 1);
+  for (std::int64_t w = lo; w <= hi; ++w)
+    if (column[slot_w_[w]] <= free_max) return true;
   return false;
 }
 

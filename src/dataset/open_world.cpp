@@ -99,6 +99,53 @@ void writeDisparityError(const cv::Mat& d, const StereoCameraModel& cam, const c
   cv::imwrite(prefix + "_disparity_error.png", err_img);
 }
 
+// OpenWorldRunOptions::trace_cells: one line per traced cell of this frame's map (development:
+// why a cell is what it is, frame by frame).
+void writeCellTrace(const SafetyMapper& mapper, const std::vector<Eigen::Vector2d>& cells,
+                    const Eigen::Isometry2d& T_world_odom, const Eigen::Vector3f& base,
+                    std::size_t frame, double t, const std::string& variant, std::ofstream* out) {
+  const SafetyMap& m = mapper.safetyMap();
+  const VoxelGrid& g = mapper.grid();
+  const HeightMap& hm = mapper.heightMap();
+  if (m.width <= 0) return;
+  const std::int32_t robot_w = g.indexOf(base).w;
+  for (const Eigen::Vector2d& cw : cells) {
+    const Eigen::Vector2d co = T_world_odom.inverse() * cw;
+    const int u = static_cast<int>(std::lround(co.x() / m.resolution));
+    const int v = static_cast<int>(std::lround(co.y() / m.resolution));
+    *out << frame << " " << t << " " << variant << " " << cw.x() << " " << cw.y() << " ";
+    if (!m.inside(u, v)) {
+      *out << "outside\n";
+      continue;
+    }
+    const int c = m.index(u, v);
+    const int k = m.segment[c];
+    *out << toString(m.labels[c]) << " " << k;
+    if (k >= 0 && k < static_cast<int>(m.segments.size())) {
+      const SegmentInfo& si = m.segments[k];
+      *out << "(" << toString(si.label) << " " << si.reachable << " " << si.obstacle << ")";
+    }
+    const int hu = u - hm.minU(), hv = v - hm.minV();
+    const bool in_hm = hu >= 0 && hv >= 0 && hu < hm.width() && hv < hm.height();
+    const int hc = hv * hm.width() + hu;
+    *out << " " << (in_hm ? hm.atIndex(hc) : HeightMap::kNoHeight) << " "
+         << (in_hm ? hm.lowestAtIndex(hc) : HeightMap::kNoHeight) << " ";
+    int lo = 0, hi = 0;
+    if (mapper.rememberedObstacle(u, v, &lo, &hi)) {
+      *out << lo << ".." << hi;
+    } else {
+      *out << "-";
+    }
+    *out << " |";
+    for (std::int32_t w = robot_w - 2; w <= hm.topIndex(); ++w) {
+      const VoxelIndex vi{u, v, w};
+      if (!g.contains(vi)) continue;
+      *out << " " << g.logOdds(vi) << ":" << g.points(vi).size;
+    }
+    *out << "\n";
+  }
+}
+
 }  // namespace
 
 SafetyMap mapInWorld(const SafetyMap& map, const Eigen::Isometry2d& T_world_odom,
@@ -193,6 +240,12 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
             : poses.size();
     cv::Mat left, right, depth, ids;
     GroundTruthMap local;
+    std::ofstream trace;
+    if (!options.trace_cells.empty() && !options.image_dir.empty()) {
+      trace.open(options.image_dir + "/seed" + std::to_string(scene.seed) + "_trace.txt");
+      trace << "# frame t variant x y label segment(label reachable obstacle) w lowest "
+               "memory(lo..hi) | log-odds:points of the column's voxels from the robot's w - 2\n";
+    }
     for (std::size_t i = 0; i < frames; ++i) {
       const RobotPose& truth = poses[i];
       const OdometryErrorModel::FramePoses fp = odometry.next(truth, head);
@@ -363,6 +416,9 @@ OpenWorldSceneResult runOpenWorldScene(const ProceduralScene& scene,
               mapBesideGroundTruth(world, gt_grid, outcomes, Eigen::Vector3d(truth.x, truth.y, 0.0),
                                    truth.yaw, name));
         }
+        if (trace)
+          writeCellTrace(p.mapper(), options.trace_cells, T_world_odom, base, i, truth.t,
+                         variants[k].name, &trace);
         scorer.scoreMap(static_cast<int>(k), p.mapper().safetyMap(), truth.t, T_world_odom, robot,
                         &result.scores[k]);
       }

@@ -257,6 +257,7 @@ void SafetyMapRos::processFrame(const Frame& frame) {
     cells_aged_ = processor_->mapper().cellsAged();
     cells_under_overhangs_ = processor_->mapper().cellsUnderOverhangs();
     cells_unseen_overhang_ = processor_->mapper().cellsUnderUnseenOverhangs();
+    cells_unseen_floor_ = processor_->mapper().cellsUnseenFloor();
   }
   // The landmark filter confirmed no point yet: nothing for the grid, nothing refused.
   if (result.landmark_filter_ran && result.points == 0) return;
@@ -430,6 +431,7 @@ bool SafetyMapRos::resetSrv(std_srvs::Empty::Request&, std_srvs::Empty::Response
     cells_aged_ = 0;
     cells_under_overhangs_ = 0;
     cells_unseen_overhang_ = 0;
+    cells_unseen_floor_ = 0;
   }
   ROS_INFO_STREAM(name_ << ": map reset on request");
   return true;
@@ -524,6 +526,7 @@ void SafetyMapRos::reconfigureCb(SafetyMapConfig& config, uint32_t /*level*/) {
     cells_aged_ = 0;
     cells_under_overhangs_ = 0;
     cells_unseen_overhang_ = 0;
+    cells_unseen_floor_ = 0;
   } else {
     if (processor_->mapper().safetyMap().width > 0) {
       processor_->recompute(robot_position_, last_stamp_.toSec());
@@ -550,6 +553,8 @@ void SafetyMapRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
            cells_under_overhangs_);
   stat.add("floor under a layer stereo did not see, made unsafe, last map (unseen_overhang)",
            cells_unseen_overhang_);
+  stat.add("floor nothing was seen above, made Unknown, last map (unseen_floor_band)",
+           cells_unseen_floor_);
   stat.add("published safety_map", map_stale_ ? "stale: all Unknown (no frame integrated for "
                                                 "stale_input_timeout)"
                                               : "live");

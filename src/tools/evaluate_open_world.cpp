@@ -77,15 +77,16 @@ struct Options {
   bool quiet = false;
   bool detector = false;          // score paper 003's detector per frame in every variant
   std::vector<int> image_frames;  // pictures of these frames of every scene (DIR/images/)
+  std::vector<Eigen::Vector2d> trace_cells;  // --trace: cells traced frame by frame
   std::vector<std::uint64_t>
       seeds;  // --seeds: these seeds of the split instead of --first/--scenes
 };
 
-std::vector<std::string> splitList(const std::string& s) {
+std::vector<std::string> splitList(const std::string& s, char sep = ',') {
   std::vector<std::string> out;
   std::stringstream ss(s);
   std::string item;
-  while (std::getline(ss, item, ','))
+  while (std::getline(ss, item, sep))
     if (!item.empty()) out.push_back(item);
   return out;
 }
@@ -101,6 +102,9 @@ void usage() {
       "         [--images F1,F2,...]   pictures of these frames of every scene (DIR/images/),\n"
       "                                beside each its segments (_segments.txt) and cells "
       "(_cells.csv)\n"
+      "         [--trace X:Y;X:Y...]   these cells (world x:y [m]) frame by frame, every "
+      "variant\n"
+      "                                (DIR/images/seed<S>_trace.txt)\n"
       "  --variants: comma-separated; name:key=value;key=value adds a variant of its own\n"
       "  --conditions: perfect, default, strong or name:spec (degradation.h)\n"
       "  --split report: NEVER tune on it (see the comment at the top of this file)\n");
@@ -125,6 +129,13 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a.value("--seeds", &v)) {
       for (const std::string& f : splitList(v))
         o->seeds.push_back(std::strtoull(f.c_str(), nullptr, 10));
+    } else if (a.value("--trace", &v)) {
+      const std::vector<std::string> f = splitList(v, ';');
+      for (const std::string& xy : f) {
+        double x = 0.0, y = 0.0;
+        if (std::sscanf(xy.c_str(), "%lf:%lf", &x, &y) != 2) return false;
+        o->trace_cells.emplace_back(x, y);
+      }
     } else if (a.value("--images", &v)) {
       for (const std::string& f : splitList(v))
         o->image_frames.push_back(std::atoi(f.c_str()));
@@ -364,9 +375,10 @@ int main(int argc, char** argv) {
   }
   ds::OpenWorldRunOptions run;
   run.max_frames = opt.max_frames;
-  if (!opt.image_frames.empty()) {
+  if (!opt.image_frames.empty() || !opt.trace_cells.empty()) {
     run.image_dir = opt.out + "/images";
     run.image_frames = opt.image_frames;
+    run.trace_cells = opt.trace_cells;
     if (!ssm::makeDirs(run.image_dir)) {
       std::fprintf(stderr, "cannot create %s\n", run.image_dir.c_str());
       return 2;

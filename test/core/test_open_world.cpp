@@ -14,6 +14,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 namespace ds = stereo_safety_map::dataset;
@@ -210,4 +213,46 @@ TEST(OpenWorldStuck, TheScorerAsksOnlyMapsAfterTheGraceTime) {
   const ds::SceneScore s = runWithTilt(0.0, 0.0, false, 40);
   EXPECT_GT(s.maps_after_grace, 0);
   EXPECT_LE(s.maps_stuck, s.maps_after_grace);
+}
+
+// OpenWorldRunOptions::trace_cells: one line per traced cell and frame, with the cell's label and
+// its column's log-odds; the floor 2 m ahead of the start is seen (some voxel of its column was
+// hit or passed) by the last frame.
+TEST(OpenWorldTrace, ACellIsFollowedFrameByFrame) {
+  ds::ProceduralScene scene;
+  ASSERT_EQ(ds::generateProceduralScene(1, ds::ProceduralConfig(), &scene), "");
+  const auto& tr = scene.file.trajectory;
+  const double yaw = tr.start_yaw_deg * M_PI / 180.0;
+  ds::OpenWorldRunOptions options;
+  options.max_frames = 6;
+  options.image_dir = ::testing::TempDir() + "ow_trace_test";
+  ASSERT_EQ(std::system(("mkdir -p " + options.image_dir).c_str()), 0);
+  options.trace_cells.emplace_back(tr.start_x + 2.0 * std::cos(yaw),
+                                   tr.start_y + 2.0 * std::sin(yaw));
+  std::vector<ds::OpenWorldVariant> variants(1);
+  variants[0].name = "traced";
+  const ds::OpenWorldSceneResult r =
+      ds::runOpenWorldScene(scene, ds::DegradationConfig::none(), variants, options);
+  ASSERT_EQ(r.error, "");
+  std::ifstream in(options.image_dir + "/seed1_trace.txt");
+  ASSERT_TRUE(in.good());
+  std::string line, last;
+  int lines = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    ++lines;
+    EXPECT_NE(line.find(" traced "), std::string::npos) << line;
+    last = line;
+  }
+  EXPECT_EQ(lines, options.max_frames);
+  // The last map holds the cell, classified or not, with its column after the '|'.
+  ASSERT_EQ(last.find("outside"), std::string::npos) << last;
+  const std::size_t bar = last.find('|');
+  ASSERT_NE(bar, std::string::npos) << last;
+  std::istringstream voxels(last.substr(bar + 1));
+  std::string v;
+  bool touched = false;
+  while (voxels >> v)
+    touched = touched || std::atoi(v.c_str()) != 0;
+  EXPECT_TRUE(touched) << last;
 }

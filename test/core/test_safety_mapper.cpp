@@ -1047,6 +1047,9 @@ TEST(SafetyMapperObstacleMemory, AnObstacleStaysUntilFreeSpaceIsObserved) {
     SafetyMapperConfig c;
     c.obstacle_memory = memory;
     c.max_cell_age = 0.0;
+    // The box's columns relabelled as floor below have nothing seen free above them: that rule
+    // (tested on its own) would make them Unknown whatever the memory does.
+    c.unseen_floor_band = 0;
     const auto m = run(frames, c);
     const Eigen::Vector3f robot = frames.back().robot;
     ASSERT_EQ(labelAt(m->safetyMap(), 2.0, 0.0), L::kNonGround) << ascii(m->safetyMap());
@@ -1152,6 +1155,7 @@ TEST(SafetyMapperObstacleMemory, OnlyWhatWasNearEnoughIsRemembered) {
   for (const double range : {0.0, to_box + 0.5, to_box - 0.3}) {
     SafetyMapperConfig c;
     c.max_cell_age = 0.0;
+    c.unseen_floor_band = 0;  // as in AnObstacleStaysUntilFreeSpaceIsObserved
     c.obstacle_memory_max_range = range;
     const auto m = run(frames, c);
     ASSERT_EQ(labelAt(m->safetyMap(), 2.0, 0.0), L::kNonGround) << range << ascii(m->safetyMap());
@@ -1355,6 +1359,79 @@ TEST(SafetyMapperUnseenOverhang, OnlyAHiddenLayerAcrossASquareCounts) {
     EXPECT_EQ(labelAt(m->safetyMap(), x, y), L::kUnknown) << x << " " << y << ascii(m->safetyMap());
   EXPECT_EQ(m->cellsUnderUnseenOverhangs(), 4);
   EXPECT_EQ(labelAt(m->safetyMap(), 2.2, 0.0), L::kLevel);
+}
+
+// SafetyMapperConfig::unseen_floor_band: a floor cell above which no ray ever passed (ground
+// points that stereo's noise pushed behind an obstacle's face) is not safe; open floor, whose
+// low voxels the rays to the floor beyond it pass through, keeps its label.
+TEST(SafetyMapperUnseenFloor, FloorNothingWasSeenAboveIsUnknown) {
+  EXPECT_GT(SafetyMapperConfig().unseen_floor_band, 0);  // on by default
+  EXPECT_EQ(paperFaithful(SafetyMapperConfig()).unseen_floor_band, 0);
+  SafetyMapperConfig bad;
+  bad.unseen_floor_band = 11;
+  EXPECT_NE(bad.validate(), "");
+  const std::vector<Frame> frames = drive(World());
+  SafetyMapperConfig c;
+  c.max_cell_age = 0.0;
+  c.obstacle_memory = false;
+  c.unseen_floor_band = 0;
+  const auto off = run(frames, c);
+  c.unseen_floor_band = 2;
+  c.unseen_floor_min_range = 1.0;  // the robot ends at x = 0
+  auto m = run(frames, c);
+  const Eigen::Vector3f robot = frames.back().robot;
+  // The open floor ahead within 3 m: the rule takes (almost) none of it.
+  const std::vector<int> ahead = cellsIn(off->safetyMap(), 1.0, 3.0, -1.0, 1.0);
+  int level_off = 0, level_on = 0;
+  for (const int k : ahead) {
+    level_off += off->safetyMap().labels[k] == L::kLevel;
+    level_on += m->safetyMap().labels[k] == L::kLevel;
+  }
+  ASSERT_GE(level_off, 300) << ascii(off->safetyMap());
+  EXPECT_GE(level_on, level_off - level_off / 50) << ascii(m->safetyMap());
+
+  // One floor cell whose two voxels above the ground were never seen free.
+  VoxelGrid& g = m->grid();
+  ASSERT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kLevel) << ascii(m->safetyMap());
+  const int before = m->cellsUnseenFloor();  // e.g. the floor's last row at the range limit
+  EXPECT_LE(before, 5) << ascii(m->safetyMap());
+  const SafetyMap& sm = m->safetyMap();
+  const std::int32_t w =
+      m->heightMap().atIndex(sm.index(cellOf(2.0, sm.resolution), cellOf(0.0, sm.resolution)));
+  VoxelIndex ground = g.indexOf(Eigen::Vector3f(2.0f, 0.0f, 0.0f));
+  ground.w = w;
+  // Not seen free: a few hits, a few passing rays.
+  const int free_lop = c.unseen_overhang_free_lop;
+  g.setLogOdds(VoxelIndex{ground.u, ground.v, ground.w + 1}, 4);
+  g.setLogOdds(VoxelIndex{ground.u, ground.v, ground.w + 2}, -free_lop + 1);
+  EXPECT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kUnknown) << ascii(m->safetyMap());
+  EXPECT_EQ(m->cellsUnseenFloor(), before + 1);
+  EXPECT_EQ(labelAt(m->safetyMap(), 2.1, 0.0), L::kLevel);
+  // Off: the cell is Level again.
+  SafetyMapperConfig no = m->config();
+  no.unseen_floor_band = 0;
+  ASSERT_EQ(m->reconfigure(no), "");
+  EXPECT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kLevel);
+  EXPECT_EQ(m->cellsUnseenFloor(), 0);
+  // One voxel of the band seen free is enough.
+  ASSERT_EQ(m->reconfigure(c), "");
+  g.setLogOdds(VoxelIndex{ground.u, ground.v, ground.w + 2}, -free_lop);
+  EXPECT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kLevel) << ascii(m->safetyMap());
+  // Nearer than unseen_floor_min_range the rule does not ask.
+  g.setLogOdds(VoxelIndex{ground.u, ground.v, ground.w + 2}, 0);
+  SafetyMapperConfig far = c;
+  far.unseen_floor_min_range = 2.5;
+  ASSERT_EQ(m->reconfigure(far), "");
+  EXPECT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kLevel) << ascii(m->safetyMap());
+  ASSERT_EQ(m->reconfigure(c), "");
+  EXPECT_EQ(labelAt(m->computeSafetyMap(robot), 2.0, 0.0), L::kUnknown);
+
+  // Without free-space decrements (decr 0: nothing is ever seen free) the rule is off.
+  SafetyMapperConfig hits_only = c;
+  hits_only.grid.decr = 0;
+  const auto h = run(frames, hits_only);
+  EXPECT_EQ(h->cellsUnseenFloor(), 0);
+  EXPECT_EQ(labelAt(h->safetyMap(), 2.0, 0.0), L::kLevel) << ascii(h->safetyMap());
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -981,6 +981,27 @@ TEST(VoxelGridScroll, HiddenBelowObservedAgreesWithLogOddsAfterScrolls) {
   EXPECT_GT(not_hidden, 50);
 }
 
+// seenFreeWithin() as well (SafetyMapperConfig::unseen_floor_band).
+TEST(VoxelGridScroll, SeenFreeWithinAgreesWithLogOddsAfterScrolls) {
+  constexpr int kFreeLop = 10;
+  int seen = 0, not_seen = 0;
+  queryColumnsAfterScrolls(
+      13, 120, -100,
+      [&](const VoxelGrid& g, const VoxelIndex& m, int u, int v, int lo, int hi, int iter) {
+        bool expected = false;
+        const bool inside = u >= m.u && u < m.u + g.sizeU() && v >= m.v && v < m.v + g.sizeV();
+        for (int w = lo; inside && w <= hi; ++w) {
+          if (w < m.w || w >= m.w + g.sizeW()) continue;  // outside the window: not a voxel
+          if (g.logOdds(idx(u, v, w)) <= -kFreeLop) expected = true;
+        }
+        const bool got = g.seenFreeWithin(u, v, lo, hi, kFreeLop);
+        ASSERT_EQ(got, expected) << "iter " << iter << " column " << u << "," << v;
+        (got ? seen : not_seen) += 1;
+      });
+  EXPECT_GT(seen, 50);  // both answers were asked for
+  EXPECT_GT(not_seen, 50);
+}
+
 TEST(VoxelGrid, HiddenBelowObservedNeedsAVoxelSeenAbove) {
   VoxelGrid g;
   g.recenter(Vec(0.0f, 0.0f, 0.0f));

@@ -133,6 +133,19 @@ struct SafetyMapperConfig {
   /// grazing angle: one ray per voxel and frame, 000 Sec. IV) lie in scattered cells and thin
   /// stripes. [1, 9].
   int unseen_overhang_min_width = 2;
+  /// Floor whose space above was never seen (ours; 0 = off): a Level or Inclined cell outside
+  /// the robot's footprint none of whose voxels 1 .. this many above its ground voxel was ever
+  /// seen free (log-odds at or below -unseen_overhang_free_lop) is Unknown. Ground points that
+  /// stereo's noise at range pushes behind an obstacle's face make a floor cell inside the
+  /// obstacle, above which no ray ever passed. Off while grid.decr is 0 (nothing is ever seen
+  /// free). [0, 10] voxels; default 2: docs/evaluation.md, "Floor nothing was seen above".
+  int unseen_floor_band = 2;
+  /// unseen_floor_band applies from this horizontal distance of the robot [m] on (ours): near
+  /// the chair stereo's depth error is a small fraction of a cell (001 Sec. 4.1), and a floor
+  /// of sparse matches there leaves the voxels above some cells without a passing ray. Default
+  /// 2 m: there sigma_Z = Z^2 sigma_d / (f b) is ~2 cm, a fifth of a cell, for the procedural
+  /// head (f b = 66.5 px m, sigma_d ~0.3 px).
+  double unseen_floor_min_range = 2.0;
 
   /// Empty when valid, otherwise a message naming the offending parameter and its range.
   std::string validate() const;
@@ -239,9 +252,14 @@ class SafetyMapper {
   int cellsUnderOverhangs() const { return cells_under_overhangs_; }
   /// Safe cells of the last map under a hidden layer (unseen_overhang_min_height).
   int cellsUnderUnseenOverhangs() const { return cells_unseen_overhang_; }
+  /// Safe cells of the last map made Unknown as floor nothing was seen above (unseen_floor_band).
+  int cellsUnseenFloor() const { return cells_unseen_floor_; }
   /// Cells the obstacle memory holds (those it keeps Non-ground and those the labelling calls
   /// Non-ground itself).
   std::size_t obstacleMemorySize() const { return obstacle_memory_.size(); }
+  /// Whether the obstacle memory holds cell (u, v) (global indices); its band of indexed
+  /// heights in *lo, *hi when it does (either may be null).
+  bool rememberedObstacle(int u, int v, int* lo, int* hi) const;
   /// Cells the memory holds as floor seen under a roof (OverhangRoofConfig::remember).
   std::size_t roofMemorySize() const { return roof_memory_.size(); }
   /// Cells the memory holds as an obstacle's face cells (obstacle_face_margin).
@@ -327,6 +345,7 @@ class SafetyMapper {
   Eigen::Vector3f last_camera_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   int cells_under_overhangs_ = 0;
   int cells_unseen_overhang_ = 0;
+  int cells_unseen_floor_ = 0;
   std::vector<std::uint8_t> unseen_hidden_, unseen_core_;  // markUnseenOverhangs() scratch
   void markUnseenOverhangs();
   // FrameLevellingConfig::filter_frames: the last accepted per-frame estimates (roll and pitch

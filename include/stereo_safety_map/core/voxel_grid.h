@@ -247,6 +247,10 @@ class VoxelGrid {
   /// stereo did not match while rays passed under and over it (SafetyMapperConfig::
   /// unseen_overhang_min_height). False outside the window. free_lop >= 1.
   bool hiddenBelowObserved(int u, int v, int w_lo, int w_hi, int free_lop) const;
+  /// Whether a voxel of column (u, v) among the indexed heights [w_lo, w_hi] (global, clipped
+  /// to the window) was seen free: passing rays' decrements took its LOP to -free_lop or below
+  /// (SafetyMapperConfig::unseen_floor_band). False outside the window. free_lop >= 1.
+  bool seenFreeWithin(int u, int v, int w_lo, int w_hi, int free_lop) const;
 
   /// Sets a voxel's log-odds directly (clamped). For tests and for fusing external cues.
   void setLogOdds(const VoxelIndex& i, int lop);
@@ -255,6 +259,11 @@ class VoxelGrid {
   std::uint32_t frameCount() const { return frame_; }
 
  private:
+  // The contiguous storage of column (u, v) and the ring rows [*lo, *hi] of the global heights
+  // [w_lo, w_hi] clipped to the window (in ring order through slot_w_); false when the column is
+  // outside the window or the clipped range is empty.
+  bool columnSpan(int u, int v, int w_lo, int w_hi, const std::int16_t** column, std::int64_t* lo,
+                  std::int64_t* hi) const;
   // Global indices are clamped to +-kIndexLimit so that any coordinate (even 1e30) converts to
   // int without overflow; a clamped index is always far outside the window.
   static constexpr int kIndexLimit = 1 << 30;

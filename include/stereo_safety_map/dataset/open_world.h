@@ -50,6 +50,9 @@ struct OpenWorldRunOptions {
   /// written to image_dir as seed<S>_frame<F>_<variant>.png (none when empty).
   std::string image_dir;
   std::vector<int> image_frames;
+  /// For development: cells (world x, y [m]) whose state every variant writes for every frame to
+  /// image_dir/seed<S>_trace.txt (label, segment, memory band, the column's log-odds).
+  std::vector<Eigen::Vector2d> trace_cells;
 };
 
 /// The map resampled onto the ground truth's grid through T_world_odom (nearest cell), over the

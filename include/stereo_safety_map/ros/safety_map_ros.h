@@ -181,6 +181,7 @@ class SafetyMapRos : public FrameNodeletShell<SafetyMapFrame> {
   std::size_t cells_aged_ = 0;     ///< safe cells of the current map turned Unknown by age
   int cells_under_overhangs_ = 0;  ///< SafetyMapper::cellsUnderOverhangs of the last map
   int cells_unseen_overhang_ = 0;  ///< SafetyMapper::cellsUnderUnseenOverhangs of the last map
+  int cells_unseen_floor_ = 0;     ///< SafetyMapper::cellsUnseenFloor of the last map
   ros::WallTime last_used_;        ///< last frame integrated or skipped as stationary
   ros::WallTime started_;
   std::uint64_t landmark_frames_empty_ = 0;  ///< frames of which the filter confirmed no point
