@@ -491,7 +491,6 @@ bool SafetyMapper::rememberedObstacle(int u, int v, int* lo, int* hi) const {
 }
 
 void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
-  auto key = memoryKey;
   SafetyMap& m = map_;
   const double max_range2 = config_.obstacle_memory_max_range * config_.obstacle_memory_max_range;
   const int clear_lop = grid_.config().occ_threshold - config_.obstacle_memory_clear_margin;
@@ -518,7 +517,8 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
         continue;
       const std::int32_t low = height_map_.lowestAtIndex(c);
       const std::int32_t lo = hi > low ? std::max(low + 1, robot_w + 1) : hi;
-      ObstacleMark& mark = obstacle_memory_.emplace(key(u, v), ObstacleMark{lo, hi}).first->second;
+      ObstacleMark& mark =
+          obstacle_memory_.emplace(memoryKey(u, v), ObstacleMark{lo, hi}).first->second;
       mark.lo = std::min(mark.lo, lo);
       mark.hi = std::max(mark.hi, hi);
     }
@@ -567,7 +567,7 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
       }
       const std::int32_t w = height_map_.atIndex(f.face_cell);
       if (w == HeightMap::kNoHeight) continue;
-      face_memory_[key(u, v)] =
+      face_memory_[memoryKey(u, v)] =
           ColumnVoxelMark{m.min_u + f.face_cell % m.width, m.min_v + f.face_cell / m.width, w};
     }
     apply(face_memory_, [&](int, int, const ColumnVoxelMark& face) {
@@ -584,7 +584,7 @@ void SafetyMapper::applyObstacleMemory(std::int32_t robot_w, float robot_z) {
   }
   for (const OverhangRoofMark& r : overhang_scratch_.marks) {
     const int u = m.min_u + r.cell % m.width, v = m.min_v + r.cell / m.width;
-    roof_memory_[key(u, v)] = ColumnVoxelMark{r.roof_u, r.roof_v, r.roof_w};
+    roof_memory_[memoryKey(u, v)] = ColumnVoxelMark{r.roof_u, r.roof_v, r.roof_w};
   }
   apply(roof_memory_, [&](int, int, const ColumnVoxelMark& roof) {
     return grid_.logOdds(VoxelIndex{roof.u, roof.v, roof.w}) > clear_lop;
@@ -621,9 +621,9 @@ void SafetyMapper::markUnseenOverhangs() {
                                                                 config_.unseen_overhang_free_lop);
       if (floor_band > 0 && (du * du + dv * dv) * res2 >= floor_r2 &&
           !grid_.seenFreeWithin(u, v, w + 1, w + floor_band, config_.unseen_overhang_free_lop)) {
+        // unseen_hidden_[c] stays as it is: a square of hidden cells may need this one.
         m.labels[c] = SafetyLabel::kUnknown;
         m.drop_off[c] = 0;
-        unseen_hidden_[c] = 0;
         ++cells_unseen_floor_;
       }
     }
