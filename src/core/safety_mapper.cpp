@@ -171,6 +171,14 @@ SafetyMapperConfig paperFaithful(const SafetyMapperConfig& config) {
 
 namespace {
 
+// Whether segment k holds a cell of the robot's footprint (GroundSegments::footprint).
+bool holdsFootprint(const GroundSegments& s, int k) {
+  if (s.footprint.empty()) return false;
+  for (const int* c = s.cellsBegin(k); c != s.cellsEnd(k); ++c)
+    if (s.footprint[*c]) return true;
+  return false;
+}
+
 const SafetyMapperConfig& checked(const SafetyMapperConfig& c) {
   const std::string err = c.validate();
   if (!err.empty()) throw std::invalid_argument("SafetyMapperConfig: " + err);
@@ -682,11 +690,15 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
 
   t = Clock::now();
   plane_fitter_.fitAll(grid_, segments_, &planes_);
-  // GroundSegmentationConfig::footprint_radius: a robot segment seeded on the footprint without
-  // enough points of its own for a plane lies on the plane the robot stands on, the base's.
+  // GroundSegmentationConfig::footprint_radius: a robot segment that holds the footprint but
+  // has not enough points of its own for a plane (none, or a few in a strip: PlaneFitConfig::
+  // min_points, min_xy_stddev) lies on the plane the robot stands on, the base's. The footprint
+  // joins the robot's segment only at the base's indexed height, so that plane is the segment's
+  // height; without it nothing is reachable and the whole map is Non-ground (issue 15, "the
+  // robot stands on ground"; dev seed 149: a seed column with 6 points in a line).
   const int rs = segments_.robot_segment;
   if (finite && rs >= 0 && rs < static_cast<int>(planes_.size()) && !planes_[rs].valid &&
-      !segments_.footprint.empty() && segments_.footprint[segments_.seed_cell]) {
+      holdsFootprint(segments_, rs)) {
     GroundPlane& p = planes_[rs];
     p = GroundPlane();
     p.valid = true;

@@ -1505,5 +1505,57 @@ TEST(SafetyMapperRelevel, ADropAheadIsNotLevelledAway) {
   EXPECT_GT(meanSurface(*levelled, 0.8, 1.4) - meanSurface(*levelled, 2.3, 3.2), 0.07);
 }
 
+TEST(SafetyMapperFootprint, ARobotSegmentWithoutAPlaneOfItsOwnStandsOnTheBase) {
+  // Issue 15, "the robot stands on ground" (dev seed 149): the camera sees a floor from 1.6 m on
+  // and, under the chair, one row of columns along the heading whose points lie on a line. That
+  // row seeds the robot's segment (an observed cell before a footprint cell) and the footprint
+  // joins it, but its points give no plane (their spread across the line is 0). The segment lies
+  // on the base's level plane, so the floor beyond the blind zone is reached across the
+  // footprint bridge, as when the footprint alone seeds it.
+  const Eigen::Vector3f robot(0.0f, 0.0f, 0.0f);
+  Eigen::Isometry3f T = Eigen::Isometry3f::Identity();  // sensor axes = fixed axes
+  T.translation() = Eigen::Vector3f(0.0f, 0.0f, 1.1f);
+  std::vector<Eigen::Vector3f> world;
+  for (double x = 1.605; x < 3.6; x += 0.02)
+    for (double y = -1.0; y < 1.0; y += 0.02)
+      world.emplace_back(x, y, 0.0);
+  for (double x = -0.195; x < 0.2; x += 0.01)
+    world.emplace_back(x, 0.005, 0.0);  // one row of cells, every point on the line y = 0.005
+  std::vector<Eigen::Vector3f> points;
+  for (const Eigen::Vector3f& p : world)
+    points.push_back(T.inverse() * p);
+
+  SafetyMapperConfig c;
+  c.skip_stationary_frames = false;
+  c.max_cell_age = 0.0;
+  SafetyMapper m(c);
+  for (int k = 0; k < 12; ++k) {
+    FrameResult r;
+    ASSERT_TRUE(m.integrateFrame(points, T, robot, &r)) << toString(r.status);
+  }
+  const SafetyMap& sm = m.safetyMap();
+  const SegmentInfo* rs = robotSegment(sm);
+  ASSERT_NE(rs, nullptr) << ascii(sm);
+  // The row seeded it: the cell under the base is observed, in the robot's segment.
+  EXPECT_EQ(sm.segment[sm.index(0, 0)], sm.robot_segment) << ascii(sm);
+  EXPECT_GT(m.heightMap().atIndex(sm.index(0, 0)), HeightMap::kNoHeight) << ascii(sm);
+  EXPECT_TRUE(rs->plane.valid);
+  EXPECT_NEAR(rs->plane.c, 0.0, 1e-6);
+  EXPECT_NEAR(rs->plane.slope_deg, 0.0, 1e-9);
+  const auto ahead = cellsIn(sm, 1.7, 2.5, -0.5, 0.5);
+  EXPECT_EQ(countLabel(sm, ahead, L::kLevel), static_cast<int>(ahead.size())) << ascii(sm);
+
+  // Off in the paper's configuration (no footprint): no plane, nothing reachable.
+  SafetyMapperConfig p = paperFaithful(c);
+  p.skip_stationary_frames = false;
+  SafetyMapper pm(p);
+  for (int k = 0; k < 12; ++k) {
+    FrameResult r;
+    ASSERT_TRUE(pm.integrateFrame(points, T, robot, &r)) << toString(r.status);
+  }
+  EXPECT_EQ(countLabel(pm.safetyMap(), cellsIn(pm.safetyMap(), 1.7, 2.5, -0.5, 0.5), L::kLevel), 0)
+      << ascii(pm.safetyMap());
+}
+
 }  // namespace
 }  // namespace stereo_safety_map

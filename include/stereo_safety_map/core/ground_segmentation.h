@@ -37,8 +37,9 @@ struct GroundSegmentationConfig {
   /// have no observed height are ground at the base's indexed height (GroundSegments::footprint):
   /// they belong to the robot's segment. Observed ground at the base's height within
   /// seed_radius still seeds it (as in 000) and the footprint joins that segment; only when none
-  /// was observed is the segment seeded on the footprint alone (and SafetyMapper gives a robot
-  /// segment without points of its own the level plane of the base). [0, 5] m.
+  /// was observed is the segment seeded on the footprint alone. SafetyMapper gives a robot
+  /// segment that holds footprint cells but has no plane of its own (no points, or a few in a
+  /// strip) the level plane of the base. [0, 5] m.
   double footprint_radius = 0.35;
   /// The seed's height is the ground the robot stands on (ours; false = the seed rule above
   /// alone). A floor seen only from afar reads centimetres high (an unreported chassis pitch
