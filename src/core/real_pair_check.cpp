@@ -88,7 +88,10 @@ GroundPlaneEstimate dominantGroundPlane(const SafetyMap& map,
   int best = -1, best_any = -1;
   for (std::size_t k = 0; k < map.segments.size(); ++k) {
     const SegmentInfo& s = map.segments[k];
-    if (!s.plane.valid) continue;
+    // A plane with no points is not a measurement: SafetyMapper gives a robot segment that holds
+    // the footprint but has no plane of its own the base's level plane (issue 15, "the robot
+    // stands on ground"). Levelling on it would return the pose guess it was made from.
+    if (!s.plane.valid || s.plane.from_base) continue;
     const int n = static_cast<int>(s.cells.size());
     if (best_any < 0 || n > static_cast<int>(map.segments[best_any].cells.size()))
       best_any = static_cast<int>(k);

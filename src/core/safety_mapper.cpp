@@ -702,6 +702,7 @@ const SafetyMap& SafetyMapper::computeSafetyMap(const Eigen::Vector3f& robot_bas
     GroundPlane& p = planes_[rs];
     p = GroundPlane();
     p.valid = true;
+    p.from_base = true;
     p.c = robot_base_position.z();
     p.centroid = robot_base_position.cast<double>();
   }

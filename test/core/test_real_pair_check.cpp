@@ -125,6 +125,22 @@ TEST(DominantGroundPlane, LargestSafeSegmentRelativeToTheCamera) {
   EXPECT_FALSE(dominantGroundPlane(SafetyMap(), T).found);
 }
 
+TEST(DominantGroundPlane, TheBasesPlaneIsNoMeasurement) {
+  // A robot segment of footprint cells with the base's plane (SafetyMapper's fallback) is larger
+  // than the measured floor: levelling on it would return the pose guess it came from.
+  SafetyMap map;
+  map.segments.push_back(segment(0, SafetyLabel::kLevel, 40, 0.0, 0.0, 0.3));
+  map.segments.push_back(segment(1, SafetyLabel::kLevel, 30, 0.0, 0.0, 0.1));
+  map.segments[0].plane.from_base = true;
+  const Eigen::Isometry3d T = cameraPose(1.2, 8.0, 0.0);
+  GroundPlaneEstimate e = dominantGroundPlane(map, T);
+  ASSERT_TRUE(e.found);
+  EXPECT_EQ(e.segment, 1);
+  EXPECT_NEAR(e.camera_height, 1.1, 1e-9);
+  map.segments[1].plane.valid = false;
+  EXPECT_FALSE(dominantGroundPlane(map, T).found);
+}
+
 TEST(FitGroundPlaneRansac, FindsTheFloorAmongWallPoints) {
   const Eigen::Isometry3d T = cameraPose(1.05, 6.0, 1.0);
   const Eigen::Isometry3d T_inv = T.inverse();

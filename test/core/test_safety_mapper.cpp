@@ -1540,6 +1540,7 @@ TEST(SafetyMapperFootprint, ARobotSegmentWithoutAPlaneOfItsOwnStandsOnTheBase) {
   EXPECT_EQ(sm.segment[sm.index(0, 0)], sm.robot_segment) << ascii(sm);
   EXPECT_GT(m.heightMap().atIndex(sm.index(0, 0)), HeightMap::kNoHeight) << ascii(sm);
   EXPECT_TRUE(rs->plane.valid);
+  EXPECT_TRUE(rs->plane.from_base);
   EXPECT_NEAR(rs->plane.c, 0.0, 1e-6);
   EXPECT_NEAR(rs->plane.slope_deg, 0.0, 1e-9);
   const auto ahead = cellsIn(sm, 1.7, 2.5, -0.5, 0.5);

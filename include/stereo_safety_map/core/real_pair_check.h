@@ -61,9 +61,11 @@ struct GroundPlaneEstimate {
 /// optical frame (n unit; any sign).
 GroundPlaneEstimate cameraPoseFromPlane(const Eigen::Vector3d& n_camera, double d);
 
-/// The largest Level or Inclined segment with a valid plane of `map` (else the largest segment
-/// with a valid plane, so that a floor that came out Non-ground is still reported) and the pose of
-/// the camera at T_fixed_camera relative to its plane. found = false when no segment has a plane.
+/// The largest Level or Inclined segment with a valid plane fitted to points of `map` (else the
+/// largest segment with such a plane, so that a floor that came out Non-ground is still reported)
+/// and the pose of the camera at T_fixed_camera relative to its plane. The base's plane that a
+/// robot segment without a plane of its own gets (GroundPlane::from_base) never counts.
+/// found = false when no segment has a fitted plane.
 GroundPlaneEstimate dominantGroundPlane(const SafetyMap& map,
                                         const Eigen::Isometry3d& T_fixed_camera);
 

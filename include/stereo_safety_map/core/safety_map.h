@@ -35,6 +35,9 @@ struct GroundPlane {
   double residual_rms = 0.0;                          ///< RMS of z residuals [m]
   std::size_t num_points = 0;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< of the fitted points
+  /// Not fitted: the base's level plane that SafetyMapper gives a robot segment that holds the
+  /// footprint but has no plane of its own (GroundSegmentationConfig::footprint_radius).
+  bool from_base = false;
 
   double heightAt(double x, double y) const { return a * x + b * y + c; }
 };
